@@ -1,0 +1,103 @@
+"""Parameters of the sensor models and of every pipeline stage, as pydantic models.
+
+Each model's defaults are the paper's values, or the defaults that
+``shared/DESIGN.md`` chose where the paper leaves a method open. The config file
+(``configs/paper.yaml``) and a scenario's ``sensors`` section are validated by
+these same models, so a value has one name and one range everywhere. Degrees
+and metres at this edge; the code converts to radians where it uses them.
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+__all__ = [
+    "CornerParams",
+    "LslParams",
+    "MatchParams",
+    "MergeParams",
+    "NoiseParams",
+    "OpenSpaceParams",
+    "RcdParams",
+    "SonarParams",
+    "UnidentifiedParams",
+]
+
+
+class _Params(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class SonarParams(_Params):
+    """A rotating Polaroid-type ultrasonic transducer."""
+
+    beam_width_deg: float = Field(25.0, gt=0, le=90, description="visibility angle of the sonic cone")
+    step_deg: float = Field(1.0, ge=0.1, le=30, description="rotation between two readings")
+    max_range: float = Field(10.0, gt=0, le=100, description="longest range the timing circuit reports (m)")
+    range_noise: float = Field(0.005, ge=0, le=1, description="standard deviation of range noise (m)")
+
+
+class LslParams(_Params):
+    """A laser structured-light stripe sensor on a rotating pan unit."""
+
+    fov_deg: float = Field(27.0, gt=0, le=180, description="camera field of view")
+    snapshots: int = Field(15, ge=1, le=360, description="snapshots per rotational scan")
+    step_deg: float = Field(24.0, gt=0, le=360, description="rotation between snapshots")
+    max_range: float = Field(8.0, gt=0, le=100, description="farthest stripe point seen (m)")
+    range_noise: float = Field(0.003, ge=0, le=1, description="range noise std per metre of range")
+    split_threshold: float = Field(0.02, gt=0, le=1, description="polyline split distance (m)")
+    min_points: int = Field(5, ge=2, le=1000, description="fewest stripe points in a segment")
+
+
+class RcdParams(_Params):
+    """Regions of constant depth: extraction and typing (section II.A)."""
+
+    range_tolerance: float = Field(0.02, gt=0, le=1, description="readings within this of the run's median (m)")
+    min_width_deg: float = Field(8.0, ge=0, le=360, description="narrowest RCD used for matching and counts")
+    jump_threshold: float = Field(1.0, gt=0, description="range jump to a neighbour that marks Type IV (m)")
+
+
+class OpenSpaceParams(_Params):
+    """Open space from typed primitive RCDs."""
+
+    margin: float = Field(0.03, ge=0, le=1, description="each sector's radius is shrunk by this (m)")
+    widen_by_half_beam: bool = Field(False, description="widen each sector by half the beam angle")
+    footprint_radius: float = Field(0.2, ge=0, le=5, description="the robot's own disc of open space (m)")
+
+
+class NoiseParams(_Params):
+    """Noise elimination: relation of a segment to the open space and the threshold."""
+
+    threshold: float = Field(0.5, ge=0, le=1, description="a segment whose fused Noise mass is above this is removed")
+    inside_fraction: float = Field(0.99, gt=0, le=1, description="inside if this share of the length is in open space")
+    outside_fraction: float = Field(0.01, ge=0, lt=1, description="outside if at most this share is in open space")
+
+
+class MergeParams(_Params):
+    """Merging collinear segments."""
+
+    distance: float = Field(0.05, ge=0, le=1, description="end points within this of the other line (m)")
+    angle_deg: float = Field(10.0, ge=0, le=90, description="directions within this")
+    gap: float = Field(0.05, ge=0, le=1, description="largest gap along the line between the two (m)")
+
+
+class CornerParams(_Params):
+    """Corners from end points of non-parallel lines."""
+
+    distance: float = Field(0.05, ge=0, le=1, description="end points within this meet at their centroid (m)")
+    min_angle_deg: float = Field(10.0, ge=0, le=90, description="lines closer than this to parallel make no corner")
+
+
+class MatchParams(_Params):
+    """Matching actual and simulated RCDs (a gated global assignment)."""
+
+    angle_scale_deg: float = Field(10.0, gt=0, description="direction difference of unit cost")
+    range_scale: float = Field(0.05, gt=0, description="range difference of unit cost (m)")
+    angle_gate_deg: float = Field(12.5, gt=0, description="pairs further apart in direction never match")
+    range_gate: float = Field(0.10, gt=0, description="pairs further apart in range never match (m)")
+
+
+class UnidentifiedParams(_Params):
+    """Unidentified objects from unmatched actual RCDs."""
+
+    merge_radius: float = Field(0.3, ge=0, description="unidentified objects closer than this are one (m)")
