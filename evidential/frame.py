@@ -1,0 +1,114 @@
+"""Frames of discernment: ordered, named elements; focal sets as int bitmasks."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+
+from evidential.errors import FrameError
+
+MAX_ELEMENTS = 63
+"""Largest frame: focal sets are bitmasks in a signed 64-bit integer."""
+
+Focal = int | str | Iterable[str]
+"""A focal set as the user writes it: a bitmask, a name, ``"a|b"``, ``""`` or names."""
+
+
+class Frame:
+    """An ordered frame of discernment; element ``i`` is bit ``i`` of a focal set.
+
+    Parameters
+    ----------
+    elements : iterable of str
+        Distinct, non-empty names without ``"|"`` and without surrounding blanks.
+
+    Examples
+    --------
+    >>> frame = Frame(["real", "noise"])
+    >>> frame.full, frame.mask("noise"), frame.mask("noise|real"), frame.label(3)
+    (3, 2, 3, 'real|noise')
+    >>> frame == Frame(["real", "noise"])
+    True
+    """
+
+    __slots__ = ("_elements", "_index", "full")
+
+    def __init__(self, elements: Iterable[str]) -> None:
+        if isinstance(elements, str):
+            raise FrameError(f"frame elements must be an iterable of names, got the string {elements!r}")
+        names = tuple(elements)
+        if not names:
+            raise FrameError("a frame needs at least one element, got none")
+        if len(names) > MAX_ELEMENTS:
+            raise FrameError(f"a frame has at most {MAX_ELEMENTS} elements, got {len(names)}")
+        for name in names:
+            if not isinstance(name, str) or not name or "|" in name or name != name.strip():
+                raise FrameError(
+                    f"frame element {name!r} must be a non-empty string without '|' or surrounding blanks"
+                )
+        index = {name: i for i, name in enumerate(names)}
+        if len(index) != len(names):
+            dup = next(name for name in names if names.count(name) > 1)
+            raise FrameError(f"frame element {dup!r} is given twice in {list(names)}")
+        self._elements = names
+        self._index = index
+        self.full = (1 << len(names)) - 1
+        """The bitmask of the whole frame (Θ)."""
+
+    @property
+    def elements(self) -> tuple[str, ...]:
+        """The element names, in frame order."""
+        return self._elements
+
+    def __len__(self) -> int:
+        return len(self._elements)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._elements)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Frame) and self._elements == other._elements
+
+    def __hash__(self) -> int:
+        return hash(self._elements)
+
+    def __repr__(self) -> str:
+        return f"Frame({list(self._elements)!r})"
+
+    def mask(self, focal: Focal) -> int:
+        """The bitmask of a focal set.
+
+        Parameters
+        ----------
+        focal : int, str or iterable of str
+            A bitmask, an element name, names joined by ``"|"`` (``""`` is the
+            empty set), or an iterable of names.
+
+        Examples
+        --------
+        >>> Frame(["a", "b", "c"]).mask(("a", "c"))
+        5
+        """
+        if isinstance(focal, bool):
+            raise FrameError(f"focal set {focal!r} must be a bitmask, a name or names, got a bool")
+        if isinstance(focal, int):
+            if not 0 <= focal <= self.full:
+                raise FrameError(f"focal set bitmask {focal} is outside 0..{self.full} of {self!r}")
+            return focal
+        names = ([] if focal == "" else focal.split("|")) if isinstance(focal, str) else focal
+        mask = 0
+        for name in names:
+            i = self._index.get(name.strip() if isinstance(name, str) else name)
+            if i is None:
+                raise FrameError(f"focal set {focal!r}: element {name!r} is not in {self!r}")
+            mask |= 1 << i
+        return mask
+
+    def label(self, mask: int) -> str:
+        """The focal set ``mask`` written as names in frame order joined by ``"|"``.
+
+        Examples
+        --------
+        >>> Frame(["a", "b"]).label(0), Frame(["a", "b"]).label(2)
+        ('', 'b')
+        """
+        return "|".join(name for i, name in enumerate(self._elements) if mask >> i & 1)
