@@ -76,12 +76,15 @@ def read_yaml(text: str, name: str) -> Any:
         raise InputError(f"{name}: {exc}") from None
 
 
-def validate(model: type[Model], data: Any, name: str) -> Model:
-    """Validate parsed data against a pydantic model; errors name every bad key path."""
+def validate(model: type[Model], data: Any, name: str, at: tuple[str | int, ...] = ()) -> Model:
+    """Validate parsed data against a pydantic model; errors name every bad key path.
+
+    ``at`` is the key path of ``data`` inside its file, prefixed to the paths in errors.
+    """
     try:
         return model.model_validate(data)
     except pydantic.ValidationError as exc:
-        problems = [f"{key_path(err['loc'])}: {_describe(err)}" for err in exc.errors()]
+        problems = [f"{key_path((*at, *err['loc']))}: {_describe(err)}" for err in exc.errors()]
         raise InputError(f"{name}: " + "; ".join(problems)) from None
 
 

@@ -1,0 +1,318 @@
+"""A whole config file: frames, the combination rule, evidence sources, stages, parameters.
+
+:func:`load_config` reads a YAML config (by default the packaged
+``configs/paper.yaml``), validates it and builds every evidence source, and
+returns an immutable :class:`Config`. A config is self-contained: no includes,
+and no meaning in the order of keys. Its top-level keys:
+
+``version``
+    ``1`` (optional).
+``frames``
+    frame name -> ``{elements: [...], aliases: {alias: focal set}}``. A focal set
+    is written as an element, elements joined by ``|`` (``real|noise``), an
+    alias (``unknown: real|noise``), or ``""`` for the empty set.
+``frame``
+    the name of the frame of the map's beliefs; every stage's sources are on it.
+``rule``
+    the combination rule, a name in :data:`evidential.RULES` (default ``dempster``).
+``sources``
+    source name -> a section with ``kind`` (a name in :data:`sources.evidence.KINDS`:
+    ``table`` or ``ramp``), ``frame``, ``feature`` and the kind's own keys.
+``stages``
+    which sources each stage of the pipeline combines: ``noise_elimination``,
+    ``reinforcement``, ``unidentified`` (lists of source names).
+``sensors``, ``rcd``, ``rcd_figure``, ``open_space``, ``noise``, ``merge``, ``corners``, ``matching``, ``unidentified``
+    the parameters of the sensor models and of each stage, validated by the
+    models of :mod:`sources.params`; a missing section takes the models' defaults.
+
+Config files are untrusted input. Limits: at most :data:`MAX_FRAMES` frames of at
+most :data:`MAX_FRAME_ELEMENTS` elements and :data:`MAX_ALIASES` aliases each,
+:data:`MAX_SOURCES` sources, :data:`MAX_STAGE_SOURCES` sources per stage, plus the
+per-source limits of :mod:`sources.evidence` and the file size limit of
+:mod:`sources.loading`. Every error is an :class:`~sources.loading.InputError`
+naming the file, the key path and the problem; nothing is returned unless the
+whole file is valid.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+import configs
+from evidential import RULES, Frame
+from sources.evidence import KINDS, EvidenceSource, Name, SpecError
+from sources.loading import InputError, key_path, load_model, validate
+from sources.params import (
+    CornerParams,
+    LslParams,
+    MatchParams,
+    MergeParams,
+    NoiseParams,
+    OpenSpaceParams,
+    RcdParams,
+    SonarParams,
+    UnidentifiedParams,
+)
+
+__all__ = [
+    "MAX_ALIASES",
+    "MAX_FRAMES",
+    "MAX_FRAME_ELEMENTS",
+    "MAX_SOURCES",
+    "MAX_STAGE_SOURCES",
+    "PARAMETER_SECTIONS",
+    "STAGES",
+    "Config",
+    "ConfigFile",
+    "FrameSpec",
+    "SensorsParams",
+    "StagesSpec",
+    "load_config",
+]
+
+MAX_FRAMES = 16
+"""Most frames in one config."""
+MAX_FRAME_ELEMENTS = 16
+"""Most elements in one frame of a config (a dense mass function has ``2**n`` entries)."""
+MAX_ALIASES = 64
+"""Most aliases in one frame."""
+MAX_SOURCES = 64
+"""Most sources in one config."""
+MAX_STAGE_SOURCES = 64
+"""Most sources combined by one stage."""
+
+STAGES: tuple[str, ...] = ("noise_elimination", "reinforcement", "unidentified")
+"""The stages of the pipeline that combine evidence sources, in the paper's order."""
+
+PARAMETER_SECTIONS: tuple[str, ...] = (
+    "sensors",
+    "rcd",
+    "rcd_figure",
+    "open_space",
+    "noise",
+    "merge",
+    "corners",
+    "matching",
+    "unidentified",
+)
+"""The top-level keys holding parameter models, in the order ``evmap config check`` prints them."""
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class FrameSpec(_Section):
+    """A frame: its ordered elements and aliases of focal sets."""
+
+    elements: list[Name] = Field(min_length=1, max_length=MAX_FRAME_ELEMENTS)
+    aliases: dict[Name, str] = Field(default_factory=dict, max_length=MAX_ALIASES)
+
+
+class SensorsParams(_Section):
+    """The sensor models."""
+
+    sonar: SonarParams = SonarParams()
+    lsl: LslParams = LslParams()
+
+
+class StagesSpec(_Section):
+    """The sources each stage combines (names under ``sources``)."""
+
+    noise_elimination: list[Name] = Field(min_length=1, max_length=MAX_STAGE_SOURCES)
+    reinforcement: list[Name] = Field(min_length=1, max_length=MAX_STAGE_SOURCES)
+    unidentified: list[Name] = Field(min_length=1, max_length=MAX_STAGE_SOURCES)
+
+
+class ConfigFile(_Section):
+    """The structure of a config file, before its sources are built."""
+
+    version: Literal[1] = 1
+    frames: dict[Name, FrameSpec] = Field(min_length=1, max_length=MAX_FRAMES)
+    frame: Name
+    rule: str = "dempster"
+    sources: dict[Name, dict[str, Any]] = Field(min_length=1, max_length=MAX_SOURCES)
+    stages: StagesSpec
+    sensors: SensorsParams = SensorsParams()
+    rcd: RcdParams = RcdParams()
+    rcd_figure: RcdParams = RcdParams(range_tolerance=0.01, min_width_deg=10.0)
+    open_space: OpenSpaceParams = OpenSpaceParams()
+    noise: NoiseParams = NoiseParams()
+    merge: MergeParams = MergeParams()
+    corners: CornerParams = CornerParams()
+    matching: MatchParams = MatchParams()
+    unidentified: UnidentifiedParams = UnidentifiedParams()
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Config:
+    """A validated config with its sources built. Immutable; see :func:`load_config`.
+
+    Attributes
+    ----------
+    name : where it was read from (used in messages).
+    frames : frame name -> :class:`evidential.Frame`.
+    aliases : frame name -> {alias: the focal set it names, as written}.
+    frame_name : the name of the map's frame, :attr:`frame`.
+    rule : the combination rule, a name in :data:`evidential.RULES`.
+    sources : source name -> built :class:`~sources.evidence.EvidenceSource`.
+    stages : stage name -> the names of the sources it combines.
+    sensors, rcd, rcd_figure, open_space, noise, merge, corners, matching, unidentified :
+        the parameter models of :mod:`sources.params`.
+    """
+
+    name: str
+    frames: Mapping[str, Frame]
+    aliases: Mapping[str, Mapping[str, str]]
+    frame_name: str
+    rule: str
+    sources: Mapping[str, EvidenceSource]
+    stages: Mapping[str, tuple[str, ...]]
+    sensors: SensorsParams
+    rcd: RcdParams
+    rcd_figure: RcdParams
+    open_space: OpenSpaceParams
+    noise: NoiseParams
+    merge: MergeParams
+    corners: CornerParams
+    matching: MatchParams
+    unidentified: UnidentifiedParams
+
+    @property
+    def frame(self) -> Frame:
+        """The frame of the map's beliefs and of every stage's sources."""
+        return self.frames[self.frame_name]
+
+    def stage_sources(self, stage: str) -> tuple[EvidenceSource, ...]:
+        """The sources a stage combines, in the order the config lists them.
+
+        >>> cfg = load_config()
+        >>> [s.name for s in cfg.stage_sources("noise_elimination")]
+        ['sonar_open_space', 'lsl_length']
+        """
+        if stage not in self.stages:
+            raise ValueError(f"unknown stage {stage!r}; stages are: {', '.join(self.stages)}")
+        return tuple(self.sources[name] for name in self.stages[stage])
+
+    def with_rule(self, rule: str) -> Config:
+        """A copy of this config that combines with another rule (a name in :data:`evidential.RULES`).
+
+        >>> load_config().with_rule("yager").rule
+        'yager'
+        """
+        _check_rule(rule)
+        return dataclasses.replace(self, rule=rule)
+
+
+def load_config(path: str | Path | None = None) -> Config:
+    """Read, validate and build a config file; ``None`` reads the packaged ``configs/paper.yaml``.
+
+    Raises
+    ------
+    sources.loading.InputError
+        naming the file, the key path and the problem, if anything in the file is wrong.
+
+    Examples
+    --------
+    >>> cfg = load_config()
+    >>> cfg.rule, cfg.noise.threshold, cfg.merge.distance
+    ('dempster', 0.5, 0.05)
+    >>> cfg.sources["lsl_length"].masses({"length": [0.2]}).round(3).tolist()
+    [[0.0, 0.3, 0.0, 0.7]]
+    """
+    source = configs.path("paper.yaml") if path is None else Path(path)
+    name = str(source)
+    spec = load_model(ConfigFile, source)
+    try:
+        return _build(spec, name)
+    except SpecError as exc:
+        raise InputError(f"{name}: {key_path(exc.at)}: {exc.problem}") from None
+
+
+def _build(spec: ConfigFile, name: str) -> Config:
+    """Build frames, check the rule, build sources and check stages; raise SpecError at the first problem."""
+    frames: dict[str, Frame] = {}
+    for frame_name, fspec in spec.frames.items():
+        try:
+            frames[frame_name] = Frame(fspec.elements)
+        except ValueError as exc:
+            raise SpecError(("frames", frame_name, "elements"), str(exc)) from None
+        for alias, written in fspec.aliases.items():
+            at = ("frames", frame_name, "aliases", alias)
+            if alias in fspec.elements:
+                raise SpecError(at, f"alias {alias!r} is also an element of the frame")
+            try:
+                frames[frame_name].mask(written)
+            except ValueError as exc:
+                raise SpecError(at, str(exc)) from None
+    if spec.frame not in frames:
+        raise SpecError(("frame",), f"unknown frame {spec.frame!r}; frames are: {', '.join(frames)}")
+    try:
+        _check_rule(spec.rule)
+    except ValueError as exc:
+        raise SpecError(("rule",), str(exc)) from None
+
+    built: dict[str, EvidenceSource] = {}
+    for source_name, data in spec.sources.items():
+        at = ("sources", source_name)
+        kind = data.get("kind")
+        if kind is None:
+            raise SpecError((*at, "kind"), f"required key is missing; kinds are: {', '.join(sorted(KINDS))}")
+        if not isinstance(kind, str) or kind not in KINDS:
+            raise SpecError((*at, "kind"), f"unknown source kind {kind!r}; kinds are: {', '.join(sorted(KINDS))}")
+        source_spec = validate(KINDS[kind].spec, data, name, at)
+        if source_spec.frame not in frames:
+            raise SpecError(
+                (*at, "frame"), f"unknown frame {source_spec.frame!r}; frames are: {', '.join(frames)}"
+            )
+        frame = frames[source_spec.frame]
+        aliases = spec.frames[source_spec.frame].aliases
+
+        def focal(written: str, frame: Frame = frame, aliases: Mapping[str, str] = aliases) -> int:
+            return frame.mask(aliases.get(written, written))
+
+        try:
+            built[source_name] = KINDS[kind].build(source_name, source_spec, frame, focal)
+        except SpecError as exc:
+            raise SpecError((*at, *exc.at), exc.problem) from None
+
+    stages: dict[str, tuple[str, ...]] = {}
+    for stage in STAGES:
+        names: list[str] = getattr(spec.stages, stage)
+        for i, source_name in enumerate(names):
+            at = ("stages", stage, i)
+            if source_name not in built:
+                raise SpecError(at, f"unknown source {source_name!r}; sources are: {', '.join(built)}")
+            if source_name in names[:i]:
+                raise SpecError(at, f"source {source_name!r} is listed twice")
+            source_frame = spec.sources[source_name]["frame"]
+            if built[source_name].frame != frames[spec.frame]:
+                raise SpecError(
+                    at,
+                    f"source {source_name!r} is on frame {source_frame!r}, not on the config's frame "
+                    f"{spec.frame!r}",
+                )
+        stages[stage] = tuple(names)
+
+    return Config(
+        name=name,
+        frames=MappingProxyType(frames),
+        aliases=MappingProxyType({k: MappingProxyType(dict(v.aliases)) for k, v in spec.frames.items()}),
+        frame_name=spec.frame,
+        rule=spec.rule,
+        sources=MappingProxyType(built),
+        stages=MappingProxyType(stages),
+        **{section: getattr(spec, section) for section in PARAMETER_SECTIONS},
+    )
+
+
+def _check_rule(rule: str) -> None:
+    """Refuse a rule name that is not in the engine's registry."""
+    if not isinstance(rule, str) or rule not in RULES:
+        raise ValueError(f"unknown rule {rule!r}; rules are: {', '.join(sorted(RULES))}")
