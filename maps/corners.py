@@ -1,0 +1,177 @@
+"""Corners where end points of different lines meet (paper, section III).
+
+End points of two different lines that are at least ``min_angle_deg`` from
+parallel and lie within ``distance`` of each other are linked. A corner is a
+connected set of linked end points (single linkage), placed at their
+centroid: for exactly two end points, their midpoint, as the paper says. The
+lines' end points are moved onto their corner. Each end point belongs to at
+most one corner; a corner holds at most one end of each line (were a line
+shorter than the tolerance to bring both its ends, the one nearer the
+corner's first centroid stays and the other is left free).
+
+Only end points are compared: an end point near the middle of another line
+(a T-junction) makes no corner, and parallel lines whose ends touch make none
+(merging is where collinear pieces join).
+
+Shape, as seen from a viewpoint (the robot) ``v``: the lines leave the corner
+``c`` in outward directions; they cut the plane round ``c`` into sectors, and
+``v - c`` lies in one of them. The corner is ``concave`` if that sector is
+narrower than 180 deg (it opens toward the robot, whose sound the two walls
+send back), else ``convex``. For two lines this is: concave if ``v`` lies
+inside the wedge the two lines span. Occlusion is not considered: from
+outside a square room, the far corner faces the robot with its inner side and
+is concave, though the walls hide it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.sparse import coo_array
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from maps.merging import check_segments
+from sources.params import CornerParams
+
+__all__ = ["Corners", "find_corners"]
+
+_EPS = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class Corners:
+    """Corners of a set of lines, and the lines snapped onto them.
+
+    Attributes
+    ----------
+    xy : (K, 2) float array, the corner points, ordered by their smallest end (2 * line + end).
+    ends : list of K int arrays of shape (m, 2), the (line index, end 0|1) pairs of
+        each corner, by line index. End 0 is a line's ``p``, end 1 its ``q``.
+    p, q : (N, 2) float arrays, copies of the lines with their corner ends moved onto the corner.
+    corner_of : (N, 2) int array, the corner of each line's end 0 and end 1, -1 if none.
+    free : (F, 2) int array, the (line index, end) pairs that belong to no corner.
+    shape : (K,) str array, "concave" or "convex" as seen from the viewpoint, or
+        "unknown" without one (or for a viewpoint exactly on the corner).
+    """
+
+    xy: NDArray[np.float64]
+    ends: list[NDArray[np.intp]]
+    p: NDArray[np.float64]
+    q: NDArray[np.float64]
+    corner_of: NDArray[np.intp]
+    free: NDArray[np.intp]
+    shape: NDArray[np.str_]
+
+
+def find_corners(
+    p: ArrayLike,
+    q: ArrayLike,
+    params: CornerParams | None = None,
+    viewpoint: ArrayLike | None = None,
+) -> Corners:
+    """Find the corners of lines p-q and snap their end points onto them.
+
+    Parameters
+    ----------
+    p, q : (N, 2) end points of the lines (metres).
+    params : the tolerances; ``CornerParams()`` (5 cm, 10 deg) if omitted.
+    viewpoint : (x, y) of the robot, for the corners' shapes; None for "unknown".
+
+    Returns
+    -------
+    Corners
+
+    Examples
+    --------
+    An L whose two ends are 2 cm apart, seen from inside the L, and from outside:
+
+    >>> p, q = [[1, 0], [0.02, 0]], [[0, 0], [0.02, 1]]
+    >>> c = find_corners(p, q, viewpoint=(0.5, 0.5))
+    >>> c.xy.tolist(), c.ends[0].tolist(), c.shape.tolist()
+    ([[0.01, 0.0]], [[0, 1], [1, 0]], ['concave'])
+    >>> c.q[0].tolist(), c.p[1].tolist(), c.free.tolist()
+    ([0.01, 0.0], [0.01, 0.0], [[0, 0], [1, 1]])
+    >>> find_corners(p, q, viewpoint=(-1, -1)).shape.tolist()
+    ['convex']
+    """
+    params = CornerParams() if params is None else params
+    p, q = check_segments(p, q)
+    n = len(p)
+    ends = np.stack([p, q], axis=1).reshape(-1, 2)  # end e is line e // 2, end e % 2
+    d = q - p
+    u = d / np.hypot(d[:, 0], d[:, 1])[:, None]
+    e1, e2 = cKDTree(ends).query_pairs(params.distance + _EPS, output_type="ndarray").T
+    l1, l2 = e1 // 2, e2 // 2
+    cos_max = np.cos(np.radians(params.min_angle_deg)) + _EPS
+    link = (l1 != l2) & (np.abs(np.sum(u[l1] * u[l2], axis=1)) <= cos_max)
+    e1, e2 = e1[link], e2[link]
+    graph = coo_array((np.ones(e1.size), (e1, e2)), shape=(2 * n, 2 * n))
+    _, comp = connected_components(graph, directed=False)
+    member = np.flatnonzero(np.bincount(comp)[comp] > 1)
+    # At most one end of a line per corner: keep the one nearest the centroid.
+    groups, cm = np.unique(comp[member], return_inverse=True)
+    centroid = _group_mean(ends[member], cm, groups.size)
+    dist = np.hypot(*(ends[member] - centroid[cm]).T)
+    order = np.lexsort((dist, member // 2, cm))
+    keep = np.ones(order.size, dtype=bool)  # the first end of each (corner, line)
+    keep[1:] = (np.diff(cm[order]) != 0) | (np.diff(member[order] // 2) != 0)
+    member = np.sort(member[order[keep]])
+    # Corners numbered by their smallest end.
+    _, first, corner = np.unique(comp[member], return_index=True, return_inverse=True)
+    corner = np.argsort(np.argsort(first))[corner]
+    k = first.size
+    xy = _group_mean(ends[member], corner, k)
+    corner_of = np.full(2 * n, -1)
+    corner_of[member] = corner
+    snapped = ends.copy()
+    snapped[member] = xy[corner]
+    by_corner = np.argsort(corner, kind="stable")
+    split = np.flatnonzero(np.diff(corner[by_corner])) + 1
+    corner_ends = [np.stack([e // 2, e % 2], axis=1) for e in np.split(member[by_corner], split)] if k else []
+    free = np.flatnonzero(corner_of < 0)
+    snapped = snapped.reshape(n, 2, 2)
+    return Corners(
+        xy=xy,
+        ends=corner_ends,
+        p=snapped[:, 0],
+        q=snapped[:, 1],
+        corner_of=corner_of.reshape(n, 2),
+        free=np.stack([free // 2, free % 2], axis=1),
+        shape=_shapes(snapped.reshape(-1, 2), member, corner, xy, viewpoint),
+    )
+
+
+def _group_mean(x: NDArray[np.float64], g: NDArray[np.intp], k: int) -> NDArray[np.float64]:
+    count = np.bincount(g, minlength=k)
+    return np.stack([np.bincount(g, x[:, i], minlength=k) for i in (0, 1)], axis=1) / count[:, None]
+
+
+def _shapes(
+    ends: NDArray[np.float64],
+    member: NDArray[np.intp],
+    corner: NDArray[np.intp],
+    xy: NDArray[np.float64],
+    viewpoint: ArrayLike | None,
+) -> NDArray[np.str_]:
+    """Concave or convex from the viewpoint: the width of the sector round each corner holding it."""
+    k = len(xy)
+    if viewpoint is None:
+        return np.full(k, "unknown")
+    v = np.asarray(viewpoint, dtype=float)
+    if v.shape != (2,) or not np.isfinite(v).all():
+        raise ValueError(f"viewpoint must be a finite (x, y) pair: got {viewpoint!r}")
+    w = v - xy
+    out = ends[member ^ 1] - xy[corner]  # each line's other end: its outward direction
+    # Angle of each line counter-clockwise from the viewpoint's direction, in [0, 2 pi).
+    rel = np.mod(np.arctan2(out[:, 1], out[:, 0]) - np.arctan2(w[corner, 1], w[corner, 0]), 2 * np.pi)
+    first_ccw = np.full(k, np.inf)
+    first_cw = np.full(k, -np.inf)
+    np.minimum.at(first_ccw, corner, rel)
+    np.maximum.at(first_cw, corner, rel)
+    width = first_ccw + 2 * np.pi - first_cw
+    shape = np.where(width < np.pi, "concave", "convex")
+    shape[(w == 0).all(axis=1)] = "unknown"
+    return shape

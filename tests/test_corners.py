@@ -1,0 +1,195 @@
+"""Corners from end points: known geometry, shapes and properties."""
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from maps.corners import find_corners
+from sources.params import CornerParams
+
+
+def _polar(start, angle_deg, length):
+    a = np.radians(angle_deg)
+    return np.asarray(start, dtype=float) + length * np.array([np.cos(a), np.sin(a)])
+
+
+def test_an_l_shape_meets_at_the_midpoint_of_the_two_ends():
+    p = np.array([[2.0, 0.01], [0.0, 0.03]])
+    q = np.array([[0.02, 0.0], [0.0, 2.0]])
+    c = find_corners(p, q)
+    np.testing.assert_allclose(c.xy, [[0.01, 0.015]])
+    assert c.ends[0].tolist() == [[0, 1], [1, 0]]
+    np.testing.assert_allclose([c.q[0], c.p[1]], [[0.01, 0.015]] * 2)
+    np.testing.assert_array_equal([c.p[0], c.q[1]], [p[0], q[1]])  # free ends stay
+    assert c.corner_of.tolist() == [[-1, 0], [0, -1]]
+    assert c.free.tolist() == [[0, 0], [1, 1]]
+    assert c.shape.tolist() == ["unknown"]
+
+
+def _square_room():
+    """Four walls of the unit square, end points a little off the corners."""
+    corners = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    jitter = np.array([[0.01, -0.01], [-0.015, 0.0], [0.0, 0.02], [0.01, 0.01]])
+    p = corners + jitter
+    q = np.roll(corners, -1, axis=0) - jitter[[1, 2, 3, 0]] / 2
+    return p, q
+
+
+def test_a_square_room_has_four_concave_corners_from_inside():
+    p, q = _square_room()
+    c = find_corners(p, q, viewpoint=(0.4, 0.6))
+    assert len(c.xy) == 4
+    np.testing.assert_allclose(np.sort(np.round(c.xy)), np.sort([[0, 0], [1, 0], [1, 1], [0, 1]]), atol=0.02)
+    assert c.shape.tolist() == ["concave"] * 4
+    assert c.free.shape == (0, 2)
+    # Each snapped wall still runs from corner to corner.
+    assert np.isin(np.concatenate([c.p, c.q]).round(12), c.xy.round(12)).all()
+
+
+def test_a_square_seen_from_outside():
+    p, q = _square_room()
+    c = find_corners(p, q, viewpoint=(-1.0, -2.0))
+    near_far = np.round(c.xy).tolist()
+    shapes = dict(zip(map(tuple, near_far), c.shape.tolist()))
+    # The three corners in view are convex; the far one, hidden behind the walls,
+    # turns its inner side toward the robot (occlusion is not considered).
+    assert shapes == {(0, 0): "convex", (1, 0): "convex", (0, 1): "convex", (1, 1): "concave"}
+
+
+def test_a_pillar_is_convex_from_all_round_and_concave_from_nowhere():
+    p, q = _square_room()
+    square = find_corners(p, q)
+    for angle in np.linspace(0, 2 * np.pi, 13):
+        robot = 0.5 + 3 * np.array([np.cos(angle), np.sin(angle)])
+        shapes = find_corners(p, q, viewpoint=robot).shape
+        visible = np.sum((square.xy - 0.5) * (robot - 0.5), axis=1) > -1e-9
+        assert (shapes[visible] == "convex").all()
+
+
+@pytest.mark.parametrize("angle", [0.0, 5.0, 9.0, 180.0, 175.0])
+def test_nearly_parallel_lines_with_close_ends_make_no_corner(angle):
+    p = [[0, 0], [1.02, 0]]
+    q = [[1, 0], _polar([1.02, 0], angle, 1)]
+    c = find_corners(p, q)
+    assert len(c.xy) == 0 and len(c.free) == 4
+
+
+@pytest.mark.parametrize("angle", [10.0, 11.0, 90.0, 170.0])
+def test_lines_far_enough_from_parallel_make_a_corner(angle):
+    c = find_corners([[0, 0], [1.02, 0]], [[1, 0], _polar([1.02, 0], angle, 1)])
+    np.testing.assert_allclose(c.xy, [[1.01, 0]])
+
+
+def test_a_t_junction_makes_no_corner():
+    c = find_corners([[0, 0], [1, 0.01]], [[2, 0], [1, 1]], viewpoint=(0.5, 0.5))
+    assert len(c.xy) == 0 and c.shape.shape == (0,)
+
+
+def test_ends_farther_than_the_tolerance_make_no_corner():
+    assert len(find_corners([[0, 0], [1.06, 0]], [[1, 0], [1.06, 1]]).xy) == 0
+    assert len(find_corners([[0, 0], [1.06, 0]], [[1, 0], [1.06, 1]], CornerParams(distance=0.07)).xy) == 1
+
+
+def test_three_lines_meet_at_the_centroid_and_shape_comes_from_the_sector_of_the_robot():
+    # Lines leave the corner at about 3, 90 and 177 deg: two sectors under 180 deg, one over.
+    p = np.array([[0.02, 0.0], [0.0, 0.02], [-0.02, 0.0]])
+    q = np.array([[1.0, 0.06], [0.0, 1.0], [-1.0, 0.06]])
+    c = find_corners(p, q, viewpoint=(1, 1))
+    np.testing.assert_allclose(c.xy, [[0.0, 0.02 / 3]])
+    assert len(c.ends[0]) == 3 and c.shape.tolist() == ["concave"]
+    assert find_corners(p, q, viewpoint=(-1, 0.5)).shape.tolist() == ["concave"]
+    assert find_corners(p, q, viewpoint=(0.3, -1)).shape.tolist() == ["convex"]
+
+
+def test_single_linkage_chains_ends_into_one_corner():
+    # End 0 to end 1 is 4 cm and end 1 to end 2 is 4 cm, end 0 to end 2 is 8 cm.
+    p = np.array([[0.0, 0.0], [0.04, 0.0], [0.08, 0.0]])
+    q = np.array([[-1.0, 0.0], [0.04, 1.0], [1.08, 1.0]])
+    c = find_corners(p, q)
+    assert len(c.xy) == 1 and len(c.ends[0]) == 3
+    np.testing.assert_allclose(c.xy, [[0.04, 0.0]])
+
+
+def test_a_line_shorter_than_the_tolerance_brings_one_end_to_a_corner():
+    p = np.array([[0.0, 0.0], [0.01, 0.01]])
+    q = np.array([[1.0, 0.0], [0.02, 0.04]])
+    c = find_corners(p, q)
+    assert c.ends[0].tolist() == [[0, 0], [1, 0]]
+    assert c.corner_of.tolist() == [[0, -1], [0, -1]]
+    assert not np.array_equal(c.p[1], c.q[1])
+
+
+def test_empty_input_and_bad_viewpoint():
+    c = find_corners(np.zeros((0, 2)), np.zeros((0, 2)), viewpoint=(0, 0))
+    assert c.xy.shape == (0, 2) and c.ends == [] and c.free.shape == (0, 2) and c.shape.shape == (0,)
+    with pytest.raises(ValueError, match="viewpoint"):
+        find_corners([[0, 0], [1, 0]], [[1, 0], [1, 1]], viewpoint=(0, 0, 1))
+    with pytest.raises(ValueError, match="positive length"):
+        find_corners([[0, 0]], [[0, 0]])
+
+
+def test_a_viewpoint_on_the_corner_leaves_the_shape_unknown():
+    assert find_corners([[0, 0], [0, 0]], [[1, 0], [0, 1]], viewpoint=(0, 0)).shape.tolist() == ["unknown"]
+
+
+@st.composite
+def line_sets(draw):
+    """Lines, many of whose ends sit near another's."""
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    n = draw(st.integers(1, 25))
+    p = rng.uniform(0, 2, (n, 2))
+    snap = rng.random(n) < 0.6
+    p[snap] = p[rng.integers(0, n, n)][snap] + rng.normal(0, 0.02, (snap.sum(), 2))
+    angle = rng.uniform(0, 2 * np.pi, n)
+    q = p + rng.uniform(0.12, 1.0, n)[:, None] * np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    flip = rng.random(n) < 0.5
+    p[flip], q[flip] = q[flip], p[flip].copy()
+    return p, q, rng.uniform(-1, 3, 2)
+
+
+@given(line_sets())
+def test_corner_properties(lines):
+    p, q, robot = lines
+    params = CornerParams()
+    c = find_corners(p, q, params, viewpoint=robot)
+    n, k = len(p), len(c.xy)
+    ends = np.stack([p, q], axis=1)
+    snapped = np.stack([c.p, c.q], axis=1)
+    # Every end is in at most one corner: the corners' ends and the free ends partition them.
+    listed = [tuple(e) for pairs in c.ends for e in pairs.tolist()] + [tuple(e) for e in c.free.tolist()]
+    assert sorted(listed) == [(i, e) for i in range(n) for e in (0, 1)]
+    for j, pairs in enumerate(c.ends):
+        lines_j, which = pairs[:, 0], pairs[:, 1]
+        assert len(set(lines_j.tolist())) == len(lines_j) >= 2
+        assert (c.corner_of[lines_j, which] == j).all()
+        np.testing.assert_allclose(c.xy[j], ends[lines_j, which].mean(axis=0))
+        assert (snapped[lines_j, which] == c.xy[j]).all()
+    free = c.corner_of < 0
+    assert (snapped[free] == ends[free]).all()
+    assert set(c.shape.tolist()) <= {"concave", "convex"} and len(c.shape) == k
+    # Ends of different non-parallel lines within the tolerance share a corner, unless
+    # one of them is left free because the other end of its line is in that corner.
+    u = (q - p) / np.linalg.norm(q - p, axis=1)[:, None]
+    flat = ends.reshape(-1, 2)
+    close = np.linalg.norm(flat[:, None] - flat[None, :], axis=2) <= params.distance
+    i, j = np.nonzero(np.triu(close, 1))
+    li, lj = i // 2, j // 2
+    linked = (li != lj) & (np.abs(np.sum(u[li] * u[lj], axis=1)) < np.cos(np.radians(params.min_angle_deg)) - 1e-6)
+    corner = c.corner_of.ravel()
+    i, j = i[linked], j[linked]
+    shared = (corner[i] == corner[j]) & (corner[i] >= 0)
+    dropped = ((corner[i] < 0) & (corner[i ^ 1] == corner[j])) | ((corner[j] < 0) & (corner[j ^ 1] == corner[i]))
+    assert (shared | dropped).all()
+
+
+@given(line_sets(), st.randoms(use_true_random=False))
+def test_corners_do_not_depend_on_line_order(lines, random):
+    p, q, robot = lines
+    order = list(range(len(p)))
+    random.shuffle(order)
+    c1 = find_corners(p, q, viewpoint=robot)
+    c2 = find_corners(p[order], q[order], viewpoint=robot)
+    key1 = sorted((tuple(np.round(xy, 9)), s) for xy, s in zip(c1.xy, c1.shape))
+    key2 = sorted((tuple(np.round(xy, 9)), s) for xy, s in zip(c2.xy, c2.shape))
+    assert key1 == key2

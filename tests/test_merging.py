@@ -1,0 +1,213 @@
+"""Merging of collinear segments: known geometry and properties."""
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from maps.merging import check_segments, merge_segments
+from sources.params import MergeParams
+
+
+def _polar(start, angle_deg, length):
+    start = np.asarray(start, dtype=float)
+    a = np.radians(angle_deg)
+    return start + length * np.array([np.cos(a), np.sin(a)])
+
+
+def _cross(u, v):
+    return u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+
+
+def _within_tolerance(p, q, m, params=MergeParams()):
+    """Every input lies within the merge tolerances of its merged line."""
+    u = m.q - m.p
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    ul, pl = u[m.line_of], m.p[m.line_of]
+    d = q - p
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    off = np.maximum(np.abs(_cross(ul, p - pl)), np.abs(_cross(ul, q - pl)))
+    angle = np.degrees(np.arccos(np.clip(np.abs(np.sum(ul * d, axis=1)), 0, 1)))
+    return bool((off <= params.distance + 1e-9).all() and (angle <= params.angle_deg + 1e-9).all())
+
+
+def test_two_collinear_overlapping_pieces_merge_into_their_span():
+    m = merge_segments([[0, 0], [0.7, 0]], [[1, 0], [1.5, 0]])
+    assert m.line_of.tolist() == [0, 0]
+    np.testing.assert_allclose(m.p, [[0, 0]], atol=1e-12)
+    np.testing.assert_allclose(m.q, [[1.5, 0]], atol=1e-12)
+
+
+@pytest.mark.parametrize(("gap", "merged"), [(0.0, True), (0.05, True), (0.06, False)])
+def test_gap_along_the_line(gap, merged):
+    m = merge_segments([[0, 0], [1 + gap, 0]], [[1, 0], [2, 0]])
+    assert (len(m.p) == 1) is merged
+
+
+@pytest.mark.parametrize(("angle", "merged"), [(9.0, True), (10.0, True), (11.0, False)])
+def test_direction_difference(angle, merged):
+    # 20 cm pieces sharing an end: the turned piece's far end stays within 5 cm of the line.
+    p = [[0, 0], [0.2, 0]]
+    q = [[0.2, 0], _polar([0.2, 0], angle, 0.2)]
+    assert (len(merge_segments(p, q).p) == 1) is merged
+
+
+def test_offset_of_the_shorter_line():
+    # Parallel lines 10 cm apart stay apart; 4 cm apart they merge.
+    assert len(merge_segments([[0, 0], [0, 0.1]], [[1, 0], [1, 0.1]]).p) == 2
+    m = merge_segments([[0, 0], [0.2, 0.04]], [[2, 0], [0.6, 0.04]])
+    assert len(m.p) == 1
+    assert _within_tolerance(np.array([[0, 0], [0.2, 0.04]]), np.array([[2, 0], [0.6, 0.04]]), m)
+
+
+def test_ten_pieces_of_a_wall_become_the_wall():
+    rng = np.random.default_rng(1)
+    a, b = np.array([1.0, 2.0]), np.array([4.0, 3.0])
+    t = np.linspace(0, 1, 11)
+    starts = t[:-1] + np.r_[0, rng.uniform(-0.01, 0.01, 9)]
+    ends = t[1:] + np.r_[rng.uniform(-0.01, 0.01, 9), 0]
+    normal = np.array([-1.0, 3.0]) / np.sqrt(10)
+    p = a + starts[:, None] * (b - a) + rng.normal(0, 0.002, (10, 1)) * normal
+    q = a + ends[:, None] * (b - a) + rng.normal(0, 0.002, (10, 1)) * normal
+    order = rng.permutation(10)
+    m = merge_segments(p[order], q[order])
+    assert len(m.p) == 1
+    assert m.groups[0].tolist() == list(range(10))
+    np.testing.assert_allclose(m.p[0], a, atol=0.005)
+    np.testing.assert_allclose(m.q[0], b, atol=0.005)
+
+
+def test_a_bending_chain_does_not_become_one_line():
+    # 30 cm pieces each turned 6 deg from the last: every neighbour pair is related,
+    # but one line through all of them would be 12 deg off its end pieces.
+    p, q = [], []
+    start = np.zeros(2)
+    for k in range(5):
+        end = _polar(start, 6 * k, 0.3)
+        p.append(start)
+        q.append(end)
+        start = end
+    p, q = np.array(p), np.array(q)
+    m = merge_segments(p, q)
+    assert 1 < len(m.p) < 5
+    assert _within_tolerance(p, q, m)
+    assert all(np.array_equal(g, np.arange(g[0], g[-1] + 1)) for g in m.groups)  # contiguous runs
+
+
+def test_the_refit_is_total_least_squares_through_points_along_the_members():
+    p = np.array([[0.0, 0.0], [0.9, 0.02], [1.5, -0.01]])
+    q = np.array([[1.0, 0.01], [1.6, 0.0], [3.0, 0.03]])
+    m = merge_segments(p, q)
+    assert len(m.p) == 1
+    # Points evenly spaced along every member (the same density on each).
+    counts = np.round(10000 * np.linalg.norm(q - p, axis=1)).astype(int)
+    pts = np.concatenate([a + ((np.arange(k) + 0.5) / k)[:, None] * (b - a) for a, b, k in zip(p, q, counts)])
+    centre = pts.mean(axis=0)
+    direction = np.linalg.svd(pts - centre, full_matrices=False)[2][0]
+    u = (m.q[0] - m.p[0]) / np.linalg.norm(m.q[0] - m.p[0])
+    assert abs(u[0] * direction[1] - u[1] * direction[0]) < 1e-4
+    assert abs(u[0] * (centre - m.p[0])[1] - u[1] * (centre - m.p[0])[0]) < 1e-4
+    # The extent spans the projections of the members' end points.
+    ends = np.concatenate([p, q])
+    span = np.sort((ends - m.p[0]) @ u)[[0, -1]]
+    np.testing.assert_allclose(span, [0, np.linalg.norm(m.q[0] - m.p[0])], atol=1e-12)
+
+
+def test_lines_unmerged_are_returned_unchanged_and_merged_ones_keep_the_longest_direction():
+    p = np.array([[2.0, 0.0], [0.5, 0.0], [0.3, 1.0]])
+    q = np.array([[0.0, 0.0], [1.0, 0.0], [0.1, 2.0]])
+    m = merge_segments(p, q)
+    assert m.line_of.tolist() == [0, 0, 1]
+    assert np.array_equal(m.p[1], p[2]) and np.array_equal(m.q[1], q[2])
+    np.testing.assert_allclose([m.p[0], m.q[0]], [[2, 0], [0, 0]], atol=1e-12)  # points like segment 0
+
+
+def test_empty_input_and_parameters():
+    m = merge_segments(np.zeros((0, 2)), np.zeros((0, 2)))
+    assert m.p.shape == (0, 2) and m.groups == [] and m.line_of.shape == (0,)
+    # A zero gap tolerance still merges touching pieces; zero angle tolerance keeps a 1 deg turn apart.
+    assert len(merge_segments([[0, 0], [1, 0]], [[1, 0], [2, 0]], MergeParams(gap=0)).p) == 1
+    turned = ([[0, 0], [0.2, 0]], [[0.2, 0], _polar([0.2, 0], 1, 0.2)])
+    assert len(merge_segments(*turned, MergeParams(angle_deg=0)).p) == 2
+
+
+@pytest.mark.parametrize(
+    ("p", "q", "message"),
+    [
+        ([[0, 0]], [[1, 0], [2, 0]], "shape"),
+        ([0, 0], [1, 0], "shape"),
+        ([[0, np.nan]], [[1, 0]], "finite"),
+        ([[0, 0], [1, 1]], [[1, 0], [1, 1]], "segment 1"),
+    ],
+)
+def test_bad_segments_are_refused(p, q, message):
+    with pytest.raises(ValueError, match=message):
+        check_segments(p, q)
+    with pytest.raises(ValueError, match=message):
+        merge_segments(p, q)
+
+
+@st.composite
+def wall_pieces(draw):
+    """Pieces of a few random walls, with overlaps, gaps and noise, and some clutter."""
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    p, q = [], []
+    for _ in range(draw(st.integers(1, 4))):
+        a = rng.uniform(-3, 3, 2)
+        angle = rng.uniform(0, 2 * np.pi)
+        u = np.array([np.cos(angle), np.sin(angle)])
+        k = int(rng.integers(1, 8))
+        t0 = np.sort(rng.uniform(0, 3, k))
+        t1 = t0 + rng.uniform(0.05, 0.6, k)
+        noise = rng.normal(0, 0.01, (k, 2, 2))
+        p.append(a + t0[:, None] * u + noise[:, 0])
+        q.append(a + t1[:, None] * u + noise[:, 1])
+    clutter = int(rng.integers(0, 6))
+    c = rng.uniform(-3, 3, (clutter, 2))
+    p.append(c)
+    q.append(c + rng.uniform(-0.3, 0.3, (clutter, 2)) + 0.01)
+    return np.concatenate(p), np.concatenate(q)
+
+
+@given(wall_pieces())
+def test_merging_properties(segments):
+    p, q = segments
+    m = merge_segments(p, q)
+    n = len(p)
+    assert len(m.p) <= n
+    # Every input belongs to exactly one group, and line_of agrees with the groups.
+    assert sorted(np.concatenate(m.groups).tolist()) == list(range(n))
+    for k, g in enumerate(m.groups):
+        assert (m.line_of[g] == k).all() and (np.diff(g) > 0).all()
+    assert [g[0] for g in m.groups] == sorted(g[0] for g in m.groups)
+    assert _within_tolerance(p, q, m)
+    # A fixed point: two output lines that would merge as lines do not fit their input
+    # pieces with one line (else the last round would have merged them).
+    again = merge_segments(m.p, m.q)
+    for group in again.groups:
+        for i, a in enumerate(group):
+            for b in group[i + 1 :]:
+                if len(merge_segments(m.p[[a, b]], m.q[[a, b]]).p) == 1:
+                    pieces = np.concatenate([m.groups[a], m.groups[b]])
+                    assert len(merge_segments(p[pieces], q[pieces]).p) > 1
+
+
+@given(wall_pieces(), st.randoms(use_true_random=False))
+def test_merging_does_not_depend_on_input_order(segments, random):
+    p, q = segments
+    order = list(range(len(p)))
+    random.shuffle(order)
+    flip = np.array([random.random() < 0.5 for _ in order])
+    pp, qq = p[order], q[order]
+    pp[flip], qq[flip] = qq[flip], pp[flip].copy()
+    m1, m2 = merge_segments(p, q), merge_segments(pp, qq)
+    groups1 = sorted(sorted(g.tolist()) for g in m1.groups)
+    groups2 = sorted(sorted(np.asarray(order)[g].tolist()) for g in m2.groups)
+    assert groups1 == groups2
+    # Same lines, whichever way they point.
+    for k, g in enumerate(m1.groups):
+        j = m2.line_of[np.argsort(order)[g[0]]]
+        same = max(np.abs(m1.p[k] - m2.p[j]).max(), np.abs(m1.q[k] - m2.q[j]).max())
+        flipped = max(np.abs(m1.p[k] - m2.q[j]).max(), np.abs(m1.q[k] - m2.p[j]).max())
+        assert min(same, flipped) <= 1e-9
