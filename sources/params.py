@@ -35,6 +35,14 @@ class SonarParams(_Params):
     step_deg: float = Field(1.0, ge=0.1, le=30, description="rotation between two readings")
     max_range: float = Field(10.0, gt=0, le=100, description="longest range the timing circuit reports (m)")
     range_noise: float = Field(0.005, ge=0, le=1, description="standard deviation of range noise (m)")
+    directivity_deg: float = Field(
+        15.0, gt=0, le=90, description="two-way beam pattern: echo amplitude falls as exp(-2 (angle / this)^2)"
+    )
+    detection_range: float = Field(
+        12.0, gt=0, le=1000, description="range at which an on-axis echo of a wall or corner falls to the threshold (m)"
+    )
+    edge_strength: float = Field(0.25, ge=0, le=1, description="echo of a convex edge or free end, relative to a wall")
+    cylinder_strength: float = Field(0.5, ge=0, le=1, description="echo of a cylinder, relative to a wall")
 
 
 class LslParams(_Params):
@@ -47,6 +55,9 @@ class LslParams(_Params):
     range_noise: float = Field(0.003, ge=0, le=1, description="range noise std per metre of range")
     split_threshold: float = Field(0.02, gt=0, le=1, description="polyline split distance (m)")
     min_points: int = Field(5, ge=2, le=1000, description="fewest stripe points in a segment")
+    ray_step_deg: float = Field(0.2, ge=0.05, le=5, description="angle between two stripe points seen")
+    split_sigmas: float = Field(3.0, ge=0, le=10, description="split distance grows by this many range-noise stds")
+    break_distance: float = Field(0.1, gt=0, le=10, description="stripe points further apart break a polyline (m)")
 
 
 class RcdParams(_Params):
@@ -63,6 +74,7 @@ class OpenSpaceParams(_Params):
     margin: float = Field(0.03, ge=0, le=1, description="each sector's radius is shrunk by this (m)")
     widen_by_half_beam: bool = Field(False, description="widen each sector by half the beam angle")
     footprint_radius: float = Field(0.2, ge=0, le=5, description="the robot's own disc of open space (m)")
+    arc_step_deg: float = Field(0.5, ge=0.01, le=10, description="angle between two vertices of a sector's arc")
 
 
 class NoiseParams(_Params):

@@ -1,0 +1,364 @@
+"""The laser structured-light (LSL) stripe sensor: stripe points, line segments, sunlight phantoms.
+
+Paper, section II.B: a horizontal laser stripe seen by a camera of about 27 deg
+field of view on a pan unit; 15 snapshots at 24 deg steps cover the full circle.
+The model, per snapshot ``k`` (centred on heading + ``k * step_deg``):
+
+1. Stripe points (:func:`stripe_scan`): rays every ``ray_step_deg`` across the
+   field of view hit the nearest LSL-opaque segment or cylinder within
+   ``max_range``; transparent surfaces (glass, mirrors) return nothing and let the
+   stripe pass. The range gets Gaussian noise of std ``range_noise * range``
+   (``max_range`` applies to the true range).
+2. Line segments (:func:`fit_polylines`): the ordered stripe points are broken
+   where a ray returns nothing or consecutive points are more than
+   ``break_distance`` apart, then split by iterative end-point fit (a point
+   further than ``split_threshold + split_sigmas * sigma`` from its piece's chord,
+   sigma the point's range-noise std, splits the piece there). Pieces of fewer
+   than ``min_points`` points are dropped (the sensor's own rejection of very
+   short segments); each other piece is fitted by total least squares and clipped
+   to its extreme points. A long wall thus arrives as several short, overlapping
+   segments, one or more per snapshot, as in the paper's Fig. 4.
+3. Sunlight phantoms (:func:`observe_lsl`, ``shared/SCENARIO.md``): a region
+   whose centroid is within ``max_range`` of the pose and in sight (the line to
+   it crosses no LSL-opaque surface) adds its ``lines`` phantom segments, drawn
+   anew for the pose and delivered as they are. Each is assigned the snapshot
+   whose centre is nearest to its midpoint's bearing.
+
+Randomness: every draw comes from ``numpy.random.default_rng([seed, pose_index,
+STREAM, ...])`` with the scenario's seed and a stream number per use
+(:data:`LSL_NOISE_STREAM`, :data:`SUNLIGHT_STREAM`), so a pose's output does not
+depend on which other poses or sensors were simulated first.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .params import LslParams
+from .surfaces import Surfaces
+from .world import World, cast_rays, visible
+
+__all__ = [
+    "LSL_NOISE_STREAM",
+    "SUNLIGHT_STREAM",
+    "LslSegments",
+    "StripeScan",
+    "concat_segments",
+    "fit_polylines",
+    "lsl_segments",
+    "observe_lsl",
+    "observe_lsl_all",
+    "stripe_scan",
+]
+
+LSL_NOISE_STREAM = 101
+"""Stream number of the LSL range noise: ``default_rng([seed, pose_index, 101])``."""
+
+SUNLIGHT_STREAM = 102
+"""Stream number of the sunlight phantoms of region ``r``: ``default_rng([seed, pose_index, 102, r])``."""
+
+
+@dataclass(frozen=True, eq=False)
+class StripeScan:
+    """The stripe points of one rotational scan: ``S`` snapshots of ``R`` rays each.
+
+    Attributes
+    ----------
+    origin : (2,) sensor position.
+    angles : (S, R) world bearing of every ray (radians), increasing within a snapshot.
+    ranges : (S, R) measured (noisy) range, NaN where the ray returned nothing.
+    true_ranges : (S, R) noise-free range, NaN where nothing.
+    hit : (S, R) what each ray hit: index into the surfaces' segments, or
+        ``N + k`` for cylinder ``k`` (``N`` segments), or -1 for nothing.
+    """
+
+    origin: NDArray[np.float64]
+    angles: NDArray[np.float64]
+    ranges: NDArray[np.float64]
+    true_ranges: NDArray[np.float64]
+    hit: NDArray[np.intp]
+
+    @property
+    def points(self) -> NDArray[np.float64]:
+        """(S, R, 2) measured stripe points in world coordinates, NaN where nothing."""
+        direction = np.stack([np.cos(self.angles), np.sin(self.angles)], axis=-1)
+        return self.origin + self.ranges[..., None] * direction
+
+
+@dataclass(frozen=True, eq=False)
+class LslSegments:
+    """LSL line segments, of one pose or of several.
+
+    Attributes
+    ----------
+    p, q : (N, 2) end points (metres, world frame).
+    truth : (N,) ``"real"`` (fitted to stripe points on a true surface) or ``"noise"`` (sunlight).
+    snapshot : (N,) index of the snapshot that saw the segment.
+    source : (N,) id of the world segment or cylinder that made most of a real
+        segment's points; ``""`` for a phantom.
+    pose : (N,) index of the pose the segment was observed from.
+    """
+
+    p: NDArray[np.float64]
+    q: NDArray[np.float64]
+    truth: NDArray[np.str_]
+    snapshot: NDArray[np.intp]
+    source: NDArray[np.str_]
+    pose: NDArray[np.intp]
+
+    def __len__(self) -> int:
+        return len(self.p)
+
+    @property
+    def length(self) -> NDArray[np.float64]:
+        """(N,) segment lengths."""
+        return np.hypot(*(self.q - self.p).T)
+
+
+def concat_segments(parts: Sequence[LslSegments]) -> LslSegments:
+    """Concatenate segment sets (e.g. the poses' outputs), keeping each one's pose index.
+
+    >>> concat_segments([]).p.shape
+    (0, 2)
+    """
+    return LslSegments(
+        p=np.concatenate([s.p for s in parts] or [np.zeros((0, 2))]),
+        q=np.concatenate([s.q for s in parts] or [np.zeros((0, 2))]),
+        truth=np.concatenate([s.truth for s in parts] or [np.zeros(0, dtype="<U5")]),
+        snapshot=np.concatenate([s.snapshot for s in parts] or [np.zeros(0, dtype=np.intp)]),
+        source=np.concatenate([s.source for s in parts] or [np.zeros(0, dtype=str)]),
+        pose=np.concatenate([s.pose for s in parts] or [np.zeros(0, dtype=np.intp)]),
+    )
+
+
+def _wrap(angle: ArrayLike) -> NDArray[np.float64]:
+    """Angles wrapped to [-pi, pi)."""
+    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+
+
+def stripe_scan(
+    surfaces: Surfaces, pose: ArrayLike, params: LslParams, rng: np.random.Generator | None = None
+) -> StripeScan:
+    """Cast the stripe of every snapshot from ``pose`` (x, y, heading in radians).
+
+    With ``rng`` None the ranges are noise-free. One standard normal is drawn per
+    ray, hit or not, so the noise of a ray does not depend on the world.
+
+    >>> from sources.scenario import parse_scenario
+    >>> world = World(parse_scenario('''{version: 1, name: w, robot: {poses: [[0, 0, 0]]},
+    ...   world: {walls: [{id: w, points: [[2, -5], [2, 5]]}]}}''', "w.yaml"))
+    >>> scan = stripe_scan(world.surfaces(), world.poses[0], LslParams(snapshots=2, step_deg=90))
+    >>> scan.ranges.shape, round(float(np.nanmin(scan.ranges)), 4), bool(np.isnan(scan.ranges[1]).all())
+    ((2, 136), 2.0, True)
+    """
+    x, y, heading = np.asarray(pose, dtype=float)
+    origin = np.array([x, y])
+    half_fov = np.radians(params.fov_deg) / 2
+    rays = int(np.floor(params.fov_deg / params.ray_step_deg + 1e-9)) + 1
+    centres = heading + np.radians(params.step_deg) * np.arange(params.snapshots)
+    angles = centres[:, None] + np.linspace(-half_fov, half_fov, rays)
+
+    # opaque surfaces within range, with the bearing interval each one covers
+    n = len(surfaces.segments)
+    p, q = surfaces.p, surfaces.q
+    e = q - p
+    along = np.clip(((origin - p) * e).sum(axis=1) / np.maximum((e**2).sum(axis=1), 1e-300), 0, 1)
+    distance = np.hypot(*(p + along[:, None] * e - origin).T)
+    segs = np.flatnonzero(surfaces.lsl_opaque & (distance <= params.max_range))
+    a1 = np.arctan2(*(p[segs] - origin)[:, ::-1].T)
+    span = _wrap(np.arctan2(*(q[segs] - origin)[:, ::-1].T) - a1)
+    seg_mid, seg_half = a1 + span / 2, np.where(distance[segs] > 1e-12, np.abs(span) / 2, np.pi)
+    c = surfaces.cylinder_centers - origin
+    centre_distance = np.hypot(*c.T)
+    cyls = np.flatnonzero(
+        surfaces.cylinder_lsl_opaque & (centre_distance - surfaces.cylinder_radii <= params.max_range)
+    )
+    cyl_mid = np.arctan2(c[cyls, 1], c[cyls, 0])
+    cyl_half = np.arcsin(np.clip(surfaces.cylinder_radii[cyls] / centre_distance[cyls], 0, 1))
+
+    true_ranges = np.full(angles.shape, np.nan)
+    hit = np.full(angles.shape, -1, dtype=np.intp)
+    for k, centre in enumerate(centres):
+        s = segs[np.abs(_wrap(seg_mid - centre)) <= seg_half + half_fov + 1e-9]
+        cy = cyls[np.abs(_wrap(cyl_mid - centre)) <= cyl_half + half_fov + 1e-9]
+        r, h = cast_rays(
+            origin, angles[k], p[s], q[s], surfaces.cylinder_centers[cy], surfaces.cylinder_radii[cy], params.max_range
+        )
+        found = h >= 0
+        true_ranges[k, found] = r[found]
+        hit[k, found] = np.concatenate([s, n + cy])[h[found]]
+    ranges = true_ranges
+    if rng is not None:
+        ranges = true_ranges * (1 + params.range_noise * rng.standard_normal(angles.shape))
+    return StripeScan(origin=origin, angles=angles, ranges=ranges, true_ranges=true_ranges, hit=hit)
+
+
+def fit_polylines(
+    points: ArrayLike, sigma: ArrayLike, params: LslParams
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]:
+    """Line segments from one snapshot's ordered stripe points (NaN rows: no return).
+
+    Parameters
+    ----------
+    points : (M, 2) stripe points in scan order.
+    sigma : (M,) range-noise std of each point (m); widens the split distance.
+    params : ``split_threshold``, ``split_sigmas``, ``break_distance``, ``min_points``.
+
+    Returns
+    -------
+    p, q : (n, 2) fitted segment ends, ``p`` on the side of the first point.
+    pieces : (n, 2) index of the first and last point of each segment's piece
+        (the point where a piece was split belongs to both pieces).
+
+    >>> wall = [[x, 2.0] for x in np.linspace(-0.5, 0.5, 21)]
+    >>> side = [[0.5, y] for y in np.linspace(1.95, 1.75, 5)]
+    >>> gap_then_wall = [[np.nan, np.nan]] + [[x, 1.0] for x in np.linspace(0.5, 0.7, 5)]
+    >>> p, q, pieces = fit_polylines(wall + side + gap_then_wall, np.zeros(32), LslParams())
+    >>> p.round(6).tolist(), q.round(6).tolist(), pieces.tolist()
+    ([[-0.5, 2.0], [0.5, 2.0], [0.5, 1.0]], [[0.5, 2.0], [0.5, 1.75], [0.7, 1.0]], [[0, 20], [20, 25], [27, 31]])
+    """
+    points = np.asarray(points, dtype=float)
+    pieces = _split(points, np.asarray(sigma, dtype=float), params)
+    p, q = _fit(points, pieces)
+    return p, q, pieces
+
+
+def _split(points: NDArray[np.float64], sigma: NDArray[np.float64], params: LslParams) -> NDArray[np.intp]:
+    """(n, 2) first and last index of each piece: runs broken at gaps, split by iterative end-point fit."""
+    tol = params.split_threshold + params.split_sigmas * sigma
+    valid = np.flatnonzero(~np.isnan(points).any(axis=1))
+    gap = np.hypot(*np.diff(points[valid], axis=0).T)
+    cut = np.flatnonzero((np.diff(valid) != 1) | (gap > params.break_distance)) + 1
+    pieces = []
+    for run in np.split(valid, cut):
+        stack = [(run[0], run[-1])] if len(run) >= params.min_points else []
+        while stack:
+            a, b = stack.pop()
+            pts = points[a : b + 1]
+            chord = pts[-1] - pts[0]
+            normal = np.array([-chord[1], chord[0]]) / np.hypot(*chord)
+            deviation = np.abs((pts - pts[0]) @ normal)
+            if np.any(deviation > tol[a : b + 1]):
+                m = a + int(np.argmax(deviation))
+                stack += [(m, b)] if b - m + 1 >= params.min_points else []
+                stack += [(a, m)] if m - a + 1 >= params.min_points else []
+            else:
+                pieces.append((a, b))
+    return np.array(sorted(pieces), dtype=np.intp).reshape(-1, 2)
+
+
+def _fit(points: NDArray[np.float64], pieces: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Total least squares line of each piece's points, clipped to its extreme points, all pieces at once."""
+    if len(pieces) == 0:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    members, owner, starts = _members(pieces)
+    count = np.diff(np.append(starts, len(members)))
+    centre = np.add.reduceat(points[members], starts, axis=0) / count[:, None]
+    d = points[members] - centre[owner]
+    sxx, syy, sxy = (np.add.reduceat(v, starts) for v in (d[:, 0] ** 2, d[:, 1] ** 2, d[:, 0] * d[:, 1]))
+    phi = 0.5 * np.arctan2(2 * sxy, sxx - syy)  # direction of largest spread
+    u = np.column_stack([np.cos(phi), np.sin(phi)])
+    u[((points[pieces[:, 1]] - points[pieces[:, 0]]) * u).sum(axis=1) < 0] *= -1  # first point to last
+    t = (d * u[owner]).sum(axis=1)
+    t_min, t_max = np.minimum.reduceat(t, starts), np.maximum.reduceat(t, starts)
+    return centre + t_min[:, None] * u, centre + t_max[:, None] * u
+
+
+def _members(pieces: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
+    """The point indices of all pieces one after the other, the piece of each, and where each piece starts."""
+    count = pieces[:, 1] - pieces[:, 0] + 1
+    starts = np.cumsum(count) - count
+    members = np.repeat(pieces[:, 0] - starts, count) + np.arange(count.sum())
+    return members, np.repeat(np.arange(len(pieces)), count), starts
+
+
+def lsl_segments(
+    surfaces: Surfaces,
+    pose: ArrayLike,
+    params: LslParams,
+    rng: np.random.Generator | None = None,
+    pose_index: int = 0,
+) -> LslSegments:
+    """Real LSL segments (no sunlight) of one scan of any surfaces from ``pose`` (x, y, heading rad).
+
+    With ``rng`` None the scan is noise-free; ``pose_index`` fills the ``pose`` field.
+
+    >>> from sources.scenario import parse_scenario
+    >>> world = World(parse_scenario('''{version: 1, name: w, robot: {poses: [[0, 0, 0]]},
+    ...   world: {walls: [{id: w, points: [[2, -5], [2, 5]]}]}}''', "w.yaml"))
+    >>> segs = lsl_segments(world.surfaces(), world.poses[0], LslParams())
+    >>> len(segs), segs.source.tolist(), segs.snapshot.tolist()
+    (7, ['w', 'w', 'w', 'w', 'w', 'w', 'w'], [0, 1, 2, 3, 12, 13, 14])
+    """
+    scan = stripe_scan(surfaces, pose, params, rng)
+    snapshots, rays = scan.ranges.shape
+    # snapshots side by side, each followed by a NaN row so that no piece spans two
+    points = np.concatenate([scan.points - scan.origin, np.full((snapshots, 1, 2), np.nan)], axis=1)
+    sigma = params.range_noise * np.nan_to_num(np.pad(scan.ranges, ((0, 0), (0, 1))))
+    hit = np.pad(scan.hit, ((0, 0), (0, 1)), constant_values=-1).ravel()
+    points = points.reshape(-1, 2)
+    pieces = _split(points, sigma.ravel(), params)
+    p, q = _fit(points, pieces)
+    # the object that made most of each piece's points
+    members, owner, _ = _members(pieces)
+    ids = np.concatenate([surfaces.segment_ids, surfaces.cylinder_ids]).astype(str)
+    pairs, votes = np.unique(owner * len(ids) + hit[members], return_counts=True)
+    best = np.lexsort((-votes, pairs // len(ids)))  # by piece, most votes first
+    first_of_piece = best[np.searchsorted(pairs[best] // len(ids), np.arange(len(pieces)))]
+    n = len(pieces)
+    return LslSegments(
+        p=p + scan.origin,
+        q=q + scan.origin,
+        truth=np.full(n, "real", dtype="<U5"),
+        snapshot=(pieces[:, 0] // (rays + 1)).astype(np.intp),
+        source=ids[pairs[first_of_piece] % len(ids)] if n else np.zeros(0, dtype=str),
+        pose=np.full(n, pose_index, dtype=np.intp),
+    )
+
+
+def _sunlight(world: World, pose_index: int, params: LslParams) -> LslSegments:
+    """The phantom segments of every sunlight region in range and in sight of the pose."""
+    x, y, heading = world.poses[pose_index]
+    origin = np.array([x, y])
+    near = np.hypot(*(world.sunlight_centroids - origin).T) <= params.max_range
+    seen = near & visible(world.surfaces(), origin, world.sunlight_centroids)
+    ps, qs = [np.zeros((0, 2))], [np.zeros((0, 2))]
+    for r in np.flatnonzero(seen):
+        p, q = world.sunlight[r].draw_lines(np.random.default_rng([world.seed, pose_index, SUNLIGHT_STREAM, r]))
+        ps.append(p)
+        qs.append(q)
+    p, q = np.concatenate(ps), np.concatenate(qs)
+    middle = (p + q) / 2 - origin
+    bearing = np.arctan2(middle[:, 1], middle[:, 0])
+    centres = heading + np.radians(params.step_deg) * np.arange(params.snapshots)
+    snapshot = np.abs(_wrap(bearing[:, None] - centres)).argmin(axis=1)
+    return LslSegments(
+        p=p,
+        q=q,
+        truth=np.full(len(p), "noise", dtype="<U5"),
+        snapshot=snapshot.astype(np.intp),
+        source=np.full(len(p), "", dtype=str),
+        pose=np.full(len(p), pose_index, dtype=np.intp),
+    )
+
+
+def observe_lsl(world: World, pose_index: int, params: LslParams) -> LslSegments:
+    """All LSL segments seen from one of the world's poses: real ones, then sunlight phantoms.
+
+    >>> from sources.scenario import default_scenario
+    >>> segs = observe_lsl(World(default_scenario()), 0, LslParams())
+    >>> int((segs.truth == "noise").sum()), bool((segs.length[segs.truth == "noise"] <= 0.35).all())
+    (28, True)
+    """
+    rng = np.random.default_rng([world.seed, pose_index, LSL_NOISE_STREAM])
+    real = lsl_segments(world.surfaces(), world.poses[pose_index], params, rng, pose_index)
+    return concat_segments([real, _sunlight(world, pose_index, params)])
+
+
+def observe_lsl_all(world: World, params: LslParams) -> LslSegments:
+    """The LSL segments of every pose of the world, concatenated (``pose`` tells them apart)."""
+    return concat_segments([observe_lsl(world, i, params) for i in range(len(world.poses))])

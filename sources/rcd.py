@@ -1,0 +1,200 @@
+"""Regions of constant depth (RCDs) of a rotational sonar scan, and their types (paper, II.A).
+
+An RCD (Leonard & Durrant-Whyte 1992) is a run of consecutive readings of about the
+same range. Extraction (``shared/DESIGN.md``, "Method choices"): a run grows while
+every one of its readings stays within ``range_tolerance`` of the run's median.
+Runs are cut greedily along the scan; a closed (full-turn) scan wraps around and is
+cut first at its largest range jump, so a run may cross the end of the scan.
+*Primitive* RCDs have no minimum width (a single reading is one); RCDs used for
+matching and counts are at least ``min_width_deg`` wide.
+
+Types, from the single readings just outside the run (its neighbours; wrapping):
+
+- IV (multiple reflection): the mean range is at max range (within the tolerance),
+  or longer than a neighbour by more than ``jump_threshold``. Tested first.
+- I: both neighbours longer (the echo point lies within the RCD; open all over).
+- II: one neighbour shorter, the other longer (small corners and edges).
+- III: both neighbours shorter (a passage to open space, or a multiple reflection).
+
+A neighbour is *shorter* when its range is below the RCD's mean range, else longer.
+An RCD without neighbours (a scan that is one run) is Type I unless at max range;
+at the ends of a scan that is not closed, the missing neighbour is ignored.
+"""
+
+from __future__ import annotations
+
+import bisect
+from dataclasses import dataclass, fields
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sources.params import RcdParams
+from sources.sonar import SonarScan
+
+__all__ = ["TYPE_I", "TYPE_II", "TYPE_III", "TYPE_IV", "Rcds", "extract_rcds"]
+
+TYPE_I, TYPE_II, TYPE_III, TYPE_IV = 1, 2, 3, 4
+"""The values of :attr:`Rcds.type`."""
+
+
+@dataclass(frozen=True, eq=False)
+class Rcds:
+    """The RCDs of one scan as arrays, one entry per RCD, ordered by first reading.
+
+    Attributes
+    ----------
+    start, end : (K,) int: index of the first and the last reading (inclusive). An
+        RCD that wraps past the end of a closed scan has ``end < start``.
+    count : (K,) int: number of readings.
+    width : (K,) float: angular extent (rad): from the first to the last beam axis,
+        plus one step (so a single reading is one step wide).
+    direction : (K,) float: mean beam-axis angle along the run (rad, in (-pi, pi]).
+    range, min_range : (K,) float: mean and shortest range of the readings (m).
+    type : (K,) int: 1, 2, 3 or 4 (Types I-IV).
+    prev_range, next_range : (K,) float: the neighbouring readings before the first
+        and after the last reading (m); NaN where there is none.
+    target : (K,) str: the target id most of the readings share ("" for none).
+    order : (K,) int: the reflection order most of the readings share.
+    """
+
+    start: NDArray[np.intp]
+    end: NDArray[np.intp]
+    count: NDArray[np.intp]
+    width: NDArray[np.float64]
+    direction: NDArray[np.float64]
+    range: NDArray[np.float64]
+    min_range: NDArray[np.float64]
+    type: NDArray[np.int_]
+    prev_range: NDArray[np.float64]
+    next_range: NDArray[np.float64]
+    target: NDArray[np.str_]
+    order: NDArray[np.int_]
+
+    def __len__(self) -> int:
+        return len(self.start)
+
+    def select(self, which: ArrayLike) -> Rcds:
+        """The RCDs picked by a boolean mask or an index array.
+
+        >>> from sources.params import SonarParams
+        >>> rcds = extract_rcds(SonarScan.from_readings(np.radians([0, 1, 2, 3]), [1, 1, 2, 2], SonarParams()),
+        ...                     RcdParams(), primitive=True)
+        >>> len(rcds), len(rcds.select(rcds.type == 1))
+        (2, 1)
+        """
+        return Rcds(**{f.name: getattr(self, f.name)[which] for f in fields(self)})
+
+
+def _runs(r: NDArray[np.float64], tol: float) -> list[tuple[int, int]]:
+    """Greedy runs ``[i, j)`` of readings each within ``tol`` of the run's median."""
+    runs = []
+    i, m = 0, len(r)
+    while i < m:
+        ordered = [float(r[i])]
+        j = i + 1
+        while j < m:
+            bisect.insort(ordered, float(r[j]))
+            k = len(ordered)
+            median = (ordered[(k - 1) // 2] + ordered[k // 2]) / 2
+            if ordered[-1] - median > tol or median - ordered[0] > tol:
+                break
+            j += 1
+        runs.append((i, j))
+        i = j
+    return runs
+
+
+def _majority(values: NDArray[Any]) -> Any:
+    """The most frequent value (the smallest among ties)."""
+    uniq, counts = np.unique(values, return_counts=True)
+    return uniq[np.argmax(counts)]
+
+
+def extract_rcds(scan: SonarScan, params: RcdParams, *, primitive: bool = False) -> Rcds:
+    """Extract and type the RCDs of a scan (paper, section II.A).
+
+    Parameters
+    ----------
+    scan : a validated scan (simulated, or from :meth:`SonarScan.from_readings`).
+    params : range tolerance, minimum width and the Type IV jump threshold.
+    primitive : True: every run, whatever its width (for the open space). False: only
+        RCDs at least ``min_width_deg`` wide (for matching and counts). Types come from
+        the neighbouring readings either way.
+
+    Returns
+    -------
+    Rcds; empty for an empty scan.
+
+    Examples
+    --------
+    A wall at 1 m seen over 25 deg, longer readings around it:
+
+    >>> from sources.params import SonarParams
+    >>> ranges = np.r_[np.full(5, 1.5), np.full(25, 1.0), np.full(5, 1.5)]
+    >>> scan = SonarScan.from_readings(np.radians(np.arange(35.0)), ranges, SonarParams())
+    >>> rcds = extract_rcds(scan, RcdParams())
+    >>> rcds.type.tolist(), rcds.start.tolist(), rcds.count.tolist(), round(float(np.degrees(rcds.width[0])))
+    ([1], [5], [25], 25)
+    >>> extract_rcds(scan, RcdParams(), primitive=True).type.tolist()
+    [3, 1, 3]
+    """
+    r, m = scan.ranges, len(scan)
+    tol = params.range_tolerance
+    closed = scan.closed
+    first = int(np.argmax(np.abs(r - np.roll(r, 1)))) if closed else 0
+    idx = (first + np.arange(m)) % m
+    rr = r[idx]
+    along = scan.angles[idx] + np.where(idx < first, 2 * np.pi, 0.0)  # unwrapped in run order
+    step = scan.step
+    runs = _runs(rr, tol)
+    if closed and len(runs) == 1:
+        runs_nb = [(np.nan, np.nan)]
+    else:
+        runs_nb = [
+            (
+                rr[i - 1] if i > 0 else (rr[-1] if closed else np.nan),
+                rr[j] if j < m else (rr[0] if closed else np.nan),
+            )
+            for i, j in runs
+        ]
+    rows = []
+    for (i, j), (prev, nxt) in zip(runs, runs_nb):
+        seg = rr[i:j]
+        mean = float(seg.mean())
+        nb = np.array([prev, nxt])
+        nb = nb[np.isfinite(nb)]
+        if mean >= scan.params.max_range - tol or np.any(mean - nb > params.jump_threshold):
+            kind = TYPE_IV
+        elif np.all(nb >= mean):
+            kind = TYPE_I
+        elif np.all(nb < mean):
+            kind = TYPE_III
+        else:
+            kind = TYPE_II
+        direction = float(np.angle(np.exp(1j * along[i:j].mean())))
+        rows.append(
+            (
+                idx[i],
+                idx[j - 1],
+                j - i,
+                along[j - 1] - along[i] + step,
+                direction,
+                mean,
+                float(seg.min()),
+                kind,
+                prev,
+                nxt,
+                _majority(scan.target[idx[i:j]]),
+                _majority(scan.order[idx[i:j]]),
+            )
+        )
+    rows.sort(key=lambda row: row[0])
+    cols = list(zip(*rows)) if rows else [()] * 12
+    dtypes = [np.intp, np.intp, np.intp, float, float, float, float, int, float, float, str, int]
+    rcds = Rcds(*(np.array(col, dtype=dt) for col, dt in zip(cols, dtypes)))
+    if primitive:
+        return rcds
+    return rcds.select(rcds.width >= np.radians(params.min_width_deg) - 1e-9)
+

@@ -1,0 +1,248 @@
+"""The simulated world of a scenario, and the ray geometry the sensor models use on it.
+
+A :class:`World` is a validated :class:`~sources.scenario.Scenario` resolved into
+arrays: materials looked up, walls joined into :class:`~sources.surfaces.Surfaces`
+(the ground truth the sensors measure, and what evaluation compares against),
+poses in radians, sunlight regions.
+
+Ids. Point ``k`` of wall ``W`` is vertex ``"W:pk"``; points of different walls (or
+of one wall) that coincide within :data:`VERTEX_TOLERANCE` are one vertex, named
+after its first occurrence in the file, so two walls that meet make a corner.
+Segment ``k`` (from point ``k`` to ``k + 1``) of wall ``W`` is ``"W:k"``, or just
+``"W"`` when the wall has one segment, so no vertex and segment share an id (a
+sonar reading's target tells a corner from a wall). A cylinder keeps its id.
+Scenario ids hold no ``:``, so :func:`wall_id` maps a segment or vertex id back to its wall.
+
+>>> from sources.scenario import parse_scenario
+>>> world = World(parse_scenario('''
+... version: 1
+... name: corner
+... world:
+...   walls:
+...     - {id: south, points: [[0, 0], [4, 0]]}
+...     - {id: east, points: [[4, 0], [4, 3], [3, 3]], material: glass}
+... robot: {poses: [[1, 1, 90]]}
+... ''', "corner.yaml"))
+>>> s = world.surfaces()
+>>> s.segment_ids.tolist(), s.vertex_ids.tolist(), s.lsl_opaque.tolist()
+(['south', 'east:0', 'east:1'], ['south:p0', 'south:p1', 'east:p1', 'east:p2'], [True, False, False])
+>>> s.vertex_degree().tolist()
+[1, 2, 2, 1]
+>>> world.poses.round(4).tolist()
+[[1.0, 1.0, 1.5708]]
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.sparse import coo_array
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from .scenario import Material, Scenario, Sunlight
+from .surfaces import Surfaces
+
+__all__ = ["VERTEX_TOLERANCE", "World", "cast_rays", "visible", "wall_id"]
+
+VERTEX_TOLERANCE = 1e-9
+"""Wall points closer than this (m) are one vertex."""
+
+
+def wall_id(object_id: str) -> str:
+    """The id of the wall (or cylinder) a segment or vertex id belongs to.
+
+    >>> wall_id("south:3"), wall_id("east-window"), wall_id("pillar")
+    ('south', 'east-window', 'pillar')
+    """
+    return object_id.partition(":")[0]
+
+
+class World:
+    """A scenario's world as arrays.
+
+    Attributes
+    ----------
+    scenario : the validated scenario.
+    name : str; seed : int, the root of all randomness.
+    materials : dict of material name to :class:`~sources.scenario.Material`, built-ins overridden.
+    poses : (P, 3) float array of ``x, y, heading`` (metres, radians).
+    sunlight : tuple of the scenario's :class:`~sources.scenario.Sunlight` regions.
+    sunlight_centroids : (S, 2) float array, each region's polygon centroid.
+    """
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.scenario = scenario
+        self.name = scenario.name
+        self.seed = scenario.seed
+        self.materials: dict[str, Material] = scenario.resolved_materials()
+        poses = np.array(scenario.robot.poses, dtype=float).reshape(-1, 3)
+        poses[:, 2] = np.radians(poses[:, 2])
+        self.poses: NDArray[np.float64] = poses
+        self.sunlight: tuple[Sunlight, ...] = tuple(scenario.world.sunlight)
+        self.sunlight_centroids: NDArray[np.float64] = np.array(
+            [_centroid(np.array(region.polygon, dtype=float)) for region in self.sunlight]
+        ).reshape(-1, 2)
+        self._surfaces = self._build_surfaces()
+
+    def __repr__(self) -> str:
+        s = self._surfaces
+        return (
+            f"World({self.name!r}: {len(s.segments)} segments, {len(s.cylinder_ids)} cylinders, "
+            f"{len(self.sunlight)} sunlight regions, {len(self.poses)} poses)"
+        )
+
+    def surfaces(self) -> Surfaces:
+        """The true walls and cylinders, with each one's sensor flags (see the module doc for ids)."""
+        return self._surfaces
+
+    def _build_surfaces(self) -> Surfaces:
+        walls = self.scenario.world.walls
+        points = np.array([xy for wall in walls for xy in wall.points], dtype=float).reshape(-1, 2)
+        point_ids = np.array([f"{wall.id}:p{k}" for wall in walls for k in range(len(wall.points))], dtype=str)
+        # one vertex per cluster of coinciding points, kept at its first point
+        pairs = cKDTree(points).query_pairs(VERTEX_TOLERANCE, output_type="ndarray")
+        graph = coo_array((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points),) * 2)
+        _, cluster = connected_components(graph, directed=False)
+        first_of_cluster = np.full(cluster.max(initial=-1) + 1, len(points))
+        np.minimum.at(first_of_cluster, cluster, np.arange(len(points)))
+        keep = np.sort(first_of_cluster)
+        vertex_of_point = np.searchsorted(keep, first_of_cluster[cluster])
+
+        # a segment starts at every point but the last of its wall
+        is_last = np.zeros(len(points), dtype=bool)
+        is_last[np.cumsum([len(wall.points) for wall in walls], dtype=np.intp) - 1] = True
+        first = np.flatnonzero(~is_last)
+        segment_ids = [
+            wall.id if len(wall.points) == 2 else f"{wall.id}:{k}"
+            for wall in walls
+            for k in range(len(wall.points) - 1)
+        ]
+        segment_material = [self.materials[wall.material] for wall in walls for _ in range(len(wall.points) - 1)]
+        cylinders = self.scenario.world.cylinders
+        cylinder_material = [self.materials[c.material] for c in cylinders]
+        return Surfaces(
+            vertices=points[keep],
+            vertex_ids=point_ids[keep],
+            segments=np.column_stack([vertex_of_point[first], vertex_of_point[first + 1]]).reshape(-1, 2),
+            segment_ids=np.array(segment_ids, dtype=str),
+            lsl_opaque=np.array([m.lsl == "opaque" for m in segment_material], dtype=bool),
+            sonar_reflective=np.array([m.sonar == "specular" for m in segment_material], dtype=bool),
+            cylinder_centers=np.array([c.center for c in cylinders], dtype=float).reshape(-1, 2),
+            cylinder_radii=np.array([c.radius for c in cylinders], dtype=float),
+            cylinder_ids=np.array([c.id for c in cylinders], dtype=str),
+            cylinder_lsl_opaque=np.array([m.lsl == "opaque" for m in cylinder_material], dtype=bool),
+            cylinder_sonar_reflective=np.array([m.sonar == "specular" for m in cylinder_material], dtype=bool),
+        )
+
+
+_ON_TARGET = 1e-9
+"""Relative tolerance of :func:`visible`: a surface this close to the target does not hide it."""
+
+
+def _centroid(polygon: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Area centroid of a simple polygon given by its vertices (shoelace formula)."""
+    x, y = polygon.T
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    cross = x * yn - xn * y
+    area3 = 3 * cross.sum()
+    return np.array([((x + xn) * cross).sum() / area3, ((y + yn) * cross).sum() / area3])
+
+
+def _cross(ax: ArrayLike, ay: ArrayLike, bx: ArrayLike, by: ArrayLike) -> NDArray[np.float64]:
+    return np.asarray(ax) * by - np.asarray(ay) * bx
+
+
+def cast_rays(
+    origin: ArrayLike,
+    angles: ArrayLike,
+    p: ArrayLike,
+    q: ArrayLike,
+    centers: ArrayLike,
+    radii: ArrayLike,
+    max_range: float,
+) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """Nearest hit of each ray from ``origin`` among segments ``p``-``q`` and circles.
+
+    Parameters
+    ----------
+    origin : (2,) ray origin.
+    angles : (R,) ray directions (radians, counter-clockwise from +x).
+    p, q : (N, 2) segment ends. centers : (K, 2), radii : (K,) circles.
+    max_range : hits further than this are no hits.
+
+    Returns
+    -------
+    ranges : (R,) distance to the nearest hit, ``inf`` where none.
+    hit : (R,) index of what was hit: ``0..N-1`` a segment, ``N..N+K-1`` a circle, -1 none.
+
+    Rays grazing a segment along its own line do not hit it; a circle is hit on its
+    near side (the origin must be outside every circle).
+
+    >>> ranges, hit = cast_rays([0, 0], [0, np.pi / 2, np.pi], [[2, -1]], [[2, 1]], [[0, 3]], [0.5], 10)
+    >>> ranges.tolist(), hit.tolist()
+    ([2.0, 2.5, inf], [0, 1, -1])
+    """
+    o = np.asarray(origin, dtype=float)
+    angles = np.asarray(angles, dtype=float)
+    dx, dy = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    p, q = np.asarray(p, dtype=float).reshape(-1, 2), np.asarray(q, dtype=float).reshape(-1, 2)
+    ex, ey = q[:, 0] - p[:, 0], q[:, 1] - p[:, 1]
+    wx, wy = p[:, 0] - o[0], p[:, 1] - o[1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        denom = _cross(dx, dy, ex, ey)  # (R, N)
+        t = _cross(wx, wy, ex, ey) / denom  # o + t d = p + s e
+        s = _cross(wx, wy, dx, dy) / denom
+    t_segments = np.where((denom != 0) & (t > 0) & (s >= 0) & (s <= 1), t, np.inf)
+
+    c = np.asarray(centers, dtype=float).reshape(-1, 2) - o
+    r = np.asarray(radii, dtype=float).reshape(-1)
+    b = dx * c[:, 0] + dy * c[:, 1]  # (R, K)
+    disc = b**2 - ((c**2).sum(axis=1) - r**2)
+    with np.errstate(invalid="ignore"):
+        t_near = b - np.sqrt(disc)
+    t_circles = np.where((disc >= 0) & (t_near > 0), t_near, np.inf)
+
+    t_all = np.concatenate([t_segments, t_circles], axis=1)
+    if t_all.shape[1] == 0:
+        return np.full(len(angles), np.inf), np.full(len(angles), -1, dtype=np.intp)
+    hit = np.argmin(t_all, axis=1)
+    ranges = t_all[np.arange(len(angles)), hit]
+    found = ranges <= max_range
+    return np.where(found, ranges, np.inf), np.where(found, hit, -1).astype(np.intp)
+
+
+def visible(surfaces: Surfaces, origin: ArrayLike, targets: ArrayLike) -> NDArray[np.bool_]:
+    """Whether the straight line from ``origin`` to each target crosses no LSL-opaque surface.
+
+    A surface through the origin or through the target itself (within a relative
+    1e-9 of the distance or radius) does not hide it; transparent surfaces never do.
+
+    >>> from sources.scenario import parse_scenario
+    >>> world = World(parse_scenario('''
+    ... {version: 1, name: v, robot: {poses: [[0, 0, 0]]},
+    ...  world: {walls: [{id: a, points: [[1, -1], [1, 1]]}, {id: g, points: [[-1, -1], [-1, 1]], material: glass}]}}
+    ... ''', "v.yaml"))
+    >>> visible(world.surfaces(), [0, 0], [[2, 0], [-2, 0], [0.5, 0], [1, 0]]).tolist()
+    [False, True, True, True]
+    """
+    o = np.asarray(origin, dtype=float)
+    d = np.asarray(targets, dtype=float).reshape(-1, 2) - o
+    opaque = surfaces.lsl_opaque
+    p, q = surfaces.p[opaque], surfaces.q[opaque]
+    dx, dy = d[:, 0:1], d[:, 1:2]
+    ex, ey = q[:, 0] - p[:, 0], q[:, 1] - p[:, 1]
+    wx, wy = p[:, 0] - o[0], p[:, 1] - o[1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        denom = _cross(dx, dy, ex, ey)  # (M, N)
+        t = _cross(wx, wy, ex, ey) / denom
+        s = _cross(wx, wy, dx, dy) / denom
+    blocked = ((denom != 0) & (t > 0) & (t < 1 - _ON_TARGET) & (s >= 0) & (s <= 1)).any(axis=1)
+
+    c = surfaces.cylinder_centers[surfaces.cylinder_lsl_opaque] - o
+    r = surfaces.cylinder_radii[surfaces.cylinder_lsl_opaque]
+    length2 = np.maximum((d**2).sum(axis=1, keepdims=True), np.finfo(float).tiny)
+    along = np.clip((dx * c[:, 0] + dy * c[:, 1]) / length2, 0, 1)  # nearest point of the sight line
+    gap2 = (along * dx - c[:, 0]) ** 2 + (along * dy - c[:, 1]) ** 2
+    blocked |= (gap2 < (r * (1 - _ON_TARGET)) ** 2).any(axis=1)
+    return ~blocked
