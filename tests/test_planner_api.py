@@ -1,0 +1,144 @@
+"""The planner's queries (issue 6): objects above a belief, landmarks, nearest obstacle, clearance."""
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+
+from evidential import Frame, MassFunction
+from maps import BeliefMap
+
+FRAME = Frame(["real", "noise"])
+
+
+def mass(real: float) -> MassFunction:
+    return MassFunction(FRAME, {"real": real, "real|noise": 1 - real})
+
+
+def random_map(seed: int, n: int = 60) -> BeliefMap:
+    """Random lines (beliefs 0..1) and unidentified objects in a 10 m square, plus corners."""
+    rng = np.random.default_rng(seed)
+    bm = BeliefMap(FRAME)
+    for i in range(n):
+        p = rng.uniform(0, 10, 2)
+        q = p + rng.uniform(-2, 2, 2)
+        bm.add_point(f"A{i}", p, "corner" if i % 3 else "endpoint", mass(rng.uniform(0, 1)))
+        bm.add_point(f"B{i}", q, "endpoint", mass(rng.uniform(0, 1)))
+        bm.add_line(f"L{i}", f"A{i}", f"B{i}", mass(rng.uniform(0, 1)), reinforced=bool(i % 2))
+    for i in range(n // 4):
+        bm.add_point(f"U{i}", rng.uniform(0, 10, 2), "unidentified", mass(rng.uniform(0, 1)))
+    return bm
+
+
+def obstacles(bm: BeliefMap, min_belief: float) -> tuple[list[str], np.ndarray]:
+    """Brute force: ids and shapely geometries of all lines and unidentified objects with that belief."""
+    lines = [line for line in bm.lines(0.0) if line.belief >= min_belief]
+    targets = [p for p in bm.unidentified() if p.belief >= min_belief]
+    ids = [o.id for o in lines + targets]
+    geoms = [shapely.LineString([o.p, o.q]) for o in lines] + [shapely.Point(o.xy) for o in targets]
+    return ids, np.array(geoms, dtype=object)
+
+
+@pytest.fixture(scope="module")
+def bm() -> BeliefMap:
+    return random_map(0)
+
+
+def test_lines_above_a_belief_carry_their_ends_mass_belief_and_plausibility(bm):
+    everything = bm.lines(0.0)
+    strong = bm.lines(min_belief=0.5)
+    assert len(everything) == 60 and [line.id for line in strong] == [x.id for x in everything if x.belief >= 0.5]
+    for line in strong:
+        assert line.belief >= 0.5 and line.belief == line.mass.belief("real")
+        assert line.plausibility == line.mass.plausibility("real") == 1.0
+        assert line.p == bm.graph.nodes[line.u]["xy"] and line.q == bm.graph.nodes[line.v]["xy"]
+    assert bm.lines(1.0) == [] and len(bm.lines()) == len(strong)
+
+
+def test_corners_unidentified_and_landmarks(bm):
+    corners = bm.corners(0.3)
+    assert corners and all(c.kind == "corner" and c.belief >= 0.3 for c in corners)
+    assert {c.id for c in corners} == {n for n, d in bm.graph.nodes(data=True)
+                                       if d["kind"] == "corner" and d["mass"].belief("real") >= 0.3}  # fmt: skip
+    assert [u.id for u in bm.unidentified()] == [f"U{i}" for i in range(15)]
+    assert all(u.belief >= 0.5 for u in bm.unidentified(0.5))
+    small = BeliefMap(FRAME)
+    small.add_point("C1", (0, 0), "corner", mass(0.9), reinforced=True)
+    small.add_point("C2", (1, 0), "corner", mass(0.9))
+    small.add_point("E1", (0, 1), "endpoint", mass(0.9), reinforced=True)
+    small.add_point("U1", (5, 5), "unidentified", mass(0.9), reinforced=True)
+    small.add_line("L1", "C1", "C2", mass(0.2), reinforced=True)
+    small.add_line("L2", "C1", "E1", mass(0.9))
+    assert [o.id for o in small.landmarks()] == ["L1", "C1"]
+
+
+@pytest.mark.parametrize("min_belief", [0.0, 0.5, 0.8])
+def test_nearest_obstacle_agrees_with_brute_force(bm, min_belief):
+    ids, geoms = obstacles(bm, min_belief)
+    for x, y in np.random.default_rng(1).uniform(-2, 12, (100, 2)):
+        distance, found = bm.nearest_obstacle((x, y), min_belief=min_belief)
+        d = shapely.distance(geoms, shapely.Point(x, y))
+        assert distance == pytest.approx(d.min(), abs=1e-12)
+        assert found in ids and d[ids.index(found)] == pytest.approx(d.min(), abs=1e-12)
+
+
+@pytest.mark.parametrize("min_belief", [0.0, 0.5, 0.8])
+def test_is_segment_clear_agrees_with_brute_force(bm, min_belief):
+    _, geoms = obstacles(bm, min_belief)
+    rng = np.random.default_rng(2)
+    answers = []
+    for a, b, clearance in zip(rng.uniform(0, 10, (150, 2)), rng.uniform(0, 10, (150, 2)), rng.uniform(0, 0.5, 150)):
+        clear = bm.is_segment_clear(a, b, clearance=clearance, min_belief=min_belief)
+        expected = bool((shapely.distance(geoms, shapely.LineString([a, b])) > clearance).all())
+        assert clear == expected
+        answers.append(clear)
+    assert any(answers) and not all(answers)
+
+
+def test_clearance_boundary_corners_and_degenerate_segments():
+    bm = BeliefMap(FRAME)
+    bm.add_point("C1", (0, 0), "corner", mass(0.9))
+    bm.add_point("C2", (4, 0), "corner", mass(0.9))
+    bm.add_line("L1", "C1", "C2", mass(0.9))
+    bm.add_point("U1", (2, 3), "unidentified", mass(0.9))
+    assert bm.is_segment_clear((0, 1), (4, 1), clearance=0.5)
+    assert not bm.is_segment_clear((0, 1), (4, 1), clearance=1.0)  # exactly at the clearance: not clear
+    assert not bm.is_segment_clear((2, 2.9), (2, 2.9), clearance=0.2)  # a point next to U1
+    assert bm.nearest_obstacle((2, 2.5)) == (0.5, "U1")
+    assert bm.nearest_obstacle((-1, 0)) == (1.0, "L1")  # corners are not obstacles: their lines are
+    assert bm.nearest_obstacle((2, 2.5), min_belief=0.95) == (math.inf, None)
+    assert bm.is_segment_clear((0, 0), (4, 0), min_belief=0.95)
+
+
+def test_queries_follow_changes_of_the_map():
+    bm = BeliefMap(FRAME)
+    bm.add_point("C1", (0, 0), "corner", mass(0.9))
+    bm.add_point("C2", (4, 0), "corner", mass(0.9))
+    assert bm.nearest_obstacle((2, 1)) == (math.inf, None) and bm.is_segment_clear((0, 0), (4, 0))
+    bm.add_line("L1", "C1", "C2", mass(0.4))
+    assert bm.nearest_obstacle((2, 1)) == (math.inf, None)
+    assert bm.nearest_obstacle((2, 1), min_belief=0.3) == (1.0, "L1")
+    bm.fold("L1", mass(0.5), {"pose": 1})  # belief 0.7: now an obstacle at 0.5
+    assert bm.nearest_obstacle((2, 1)) == (1.0, "L1") and not bm.is_segment_clear((2, 0.1), (2, 2))
+    bm.set_attrs("C2", xy=(4, 4))
+    assert bm.nearest_obstacle((4, 0))[0] == pytest.approx(math.sqrt(8))
+    bm.remove_line("L1")
+    assert bm.nearest_obstacle((2, 1), min_belief=0.0) == (math.inf, None) and bm.lines(0.0) == []
+
+
+@pytest.mark.parametrize(
+    ("call", "match"),
+    [
+        (lambda bm: bm.nearest_obstacle((0, math.nan)), "finite"),
+        (lambda bm: bm.nearest_obstacle((0, 1, 2)), r"\(x, y\)"),
+        (lambda bm: bm.nearest_obstacle((0, 0), min_belief=1.5), "min_belief"),
+        (lambda bm: bm.lines(min_belief=-0.1), "min_belief"),
+        (lambda bm: bm.corners(min_belief="high"), "min_belief"),
+        (lambda bm: bm.is_segment_clear((0, 0), (1, 1), clearance=-1), "clearance"),
+        (lambda bm: bm.is_segment_clear((0, 0), (1, math.inf)), "finite"),
+    ],
+)
+def test_bad_query_arguments_are_refused(bm, call, match):
+    with pytest.raises(ValueError, match=match):
+        call(bm)
