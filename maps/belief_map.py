@@ -40,7 +40,7 @@ from contextlib import contextmanager
 from itertools import chain
 from numbers import Real
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import networkx as nx
 import numpy as np
@@ -51,7 +51,13 @@ from numpy.typing import NDArray
 from evidential import RULES, Frame, MassFunction, Stack, combine, conflict
 from evidential.mass import SUM_TOLERANCE
 from maps.occupancy import OccupancyParams, evidential_grid, occupancy_from_masses, write_atomic, write_ros_map
+from maps.segments import SegmentStore
+from sources.config import Config, config_from_data
 from sources.loading import InputError
+
+if TYPE_CHECKING:
+    from maps.observation import Observation
+    from maps.pipeline import PoseOutcome
 
 __all__ = ["LINE_KIND", "POINT_KINDS", "SCHEMA_VERSION", "BeliefMap", "Line", "MapFileError", "Point"]
 
@@ -64,7 +70,7 @@ POINT_KINDS = ("corner", "endpoint", "unidentified")
 LINE_KIND = "line"
 """The kind of every line (edge)."""
 
-_GRAPH_KEYS = ("schema_version", "frame", "rule", "open_space")
+_GRAPH_KEYS = ("schema_version", "frame", "rule", "open_space", "segments")
 _POINT_KEYS = ("id", "xy", "kind", "mass", "history")
 _LINE_KEYS = ("id", "kind", "mass", "history", "source", "target")
 _NODE_REQUIRED = frozenset(("id", "xy", "kind", "mass"))
@@ -170,6 +176,9 @@ class BeliefMap:
         self._lines: dict[str, tuple[str, str]] = {}
         self._open_space: shapely.MultiPolygon = shapely.MultiPolygon()
         self._index: _Index | None = None
+        self._config: Config | None = None
+        self.segments = SegmentStore.empty(frame)
+        """The raw LSL segments behind the lines (:class:`maps.segments.SegmentStore`)."""
 
     def __repr__(self) -> str:
         return (
@@ -325,6 +334,26 @@ class BeliefMap:
         self._changed()
         return combined
 
+    # ----------------------------------------------------------------- observations
+
+    @property
+    def config(self) -> Config:
+        """The config the map folds observations with (stored in the graph as ``config``).
+
+        Maps made by :func:`maps.pipeline.new_map` (and so by ``evmap run``) carry one.
+        """
+        if self._config is None:
+            if "config" not in self._graph.graph:
+                raise ValueError("this map carries no config: make maps to update with maps.pipeline.new_map(config)")
+            self._config = config_from_data(self._graph.graph["config"], "map config")
+        return self._config
+
+    def update(self, observation: Observation) -> PoseOutcome:
+        """Fold in one pose's observation by the paper's pipeline (:func:`maps.pipeline.fold_observation`)."""
+        from maps.pipeline import fold_observation  # the pipeline builds on this class
+
+        return fold_observation(self, observation, self.config)
+
     # ----------------------------------------------------------------- lookup
 
     def __contains__(self, id: object) -> bool:
@@ -462,7 +491,8 @@ class BeliefMap:
                 {**adj[u][v], "mass": encode(adj[u][v]["mass"]), "source": u, "target": v}
                 for u, v in self._lines.values()
             ]
-        return {"directed": False, "multigraph": False, "graph": dict(g.graph), "nodes": nodes, "edges": edges}
+        graph = {**g.graph, "segments": self.segments.to_json()}
+        return {"directed": False, "multigraph": False, "graph": graph, "nodes": nodes, "edges": edges}
 
     @classmethod
     def from_data(cls, data: Any, name: str = "map") -> BeliefMap:
@@ -760,6 +790,11 @@ class _MapReader:
             bm = BeliefMap(frame, attrs.get("rule"), **extras)
         except ValueError as exc:
             raise self.fail("graph", str(exc)) from None
+        if "segments" in attrs:
+            try:
+                bm.segments = SegmentStore.from_json(attrs["segments"], bm.frame)
+            except ValueError as exc:
+                raise self.fail("graph.segments", str(exc)) from None
         if "open_space" in attrs:
             try:
                 bm.open_space = _multipolygon(attrs["open_space"])

@@ -73,6 +73,7 @@ __all__ = [
     "FrameSpec",
     "SensorsParams",
     "StagesSpec",
+    "config_from_data",
     "load_config",
 ]
 
@@ -157,6 +158,7 @@ class Config:
     Attributes
     ----------
     name : where it was read from (used in messages).
+    spec : the validated file as written (:meth:`to_data` writes it back).
     frames : frame name -> :class:`evidential.Frame`.
     aliases : frame name -> {alias: the focal set it names, as written}.
     frame_name : the name of the map's frame, :attr:`frame`.
@@ -168,6 +170,7 @@ class Config:
     """
 
     name: str
+    spec: ConfigFile
     frames: Mapping[str, Frame]
     aliases: Mapping[str, Mapping[str, str]]
     frame_name: str
@@ -200,6 +203,15 @@ class Config:
             raise ValueError(f"unknown stage {stage!r}; stages are: {', '.join(self.stages)}")
         return tuple(self.sources[name] for name in self.stages[stage])
 
+    def to_data(self) -> dict[str, Any]:
+        """The config as JSON-able data (with its current rule); :func:`config_from_data` reads it back.
+
+        >>> cfg = load_config().with_rule("yager")
+        >>> config_from_data(cfg.to_data(), "copy").rule
+        'yager'
+        """
+        return {**self.spec.model_dump(mode="json"), "rule": self.rule}
+
     def with_rule(self, rule: str) -> Config:
         """A copy of this config that combines with another rule (a name in :data:`evidential.RULES`).
 
@@ -228,7 +240,16 @@ def load_config(path: str | Path | None = None) -> Config:
     """
     source = configs.path("paper.yaml") if path is None else Path(path)
     name = str(source)
-    spec = load_model(ConfigFile, source)
+    return _build_checked(load_model(ConfigFile, source), name)
+
+
+def config_from_data(data: Any, name: str) -> Config:
+    """Validate and build a config from parsed data (a YAML file's content, or :meth:`Config.to_data`)."""
+    return _build_checked(validate(ConfigFile, data, name), name)
+
+
+def _build_checked(spec: ConfigFile, name: str) -> Config:
+    """:func:`_build`, its first problem raised as an InputError naming the file and key path."""
     try:
         return _build(spec, name)
     except SpecError as exc:
@@ -302,6 +323,7 @@ def _build(spec: ConfigFile, name: str) -> Config:
 
     return Config(
         name=name,
+        spec=spec,
         frames=MappingProxyType(frames),
         aliases=MappingProxyType({k: MappingProxyType(dict(v.aliases)) for k, v in spec.frames.items()}),
         frame_name=spec.frame,

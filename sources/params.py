@@ -113,3 +113,6 @@ class UnidentifiedParams(_Params):
     """Unidentified objects from unmatched actual RCDs."""
 
     merge_radius: float = Field(0.3, ge=0, description="unidentified objects closer than this are one (m)")
+    occlusion_margin: float = Field(
+        0.1, ge=0, description="a map line this much nearer than an RCD's range hides its target (m)"
+    )

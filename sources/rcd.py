@@ -120,8 +120,9 @@ def extract_rcds(scan: SonarScan, params: RcdParams, *, primitive: bool = False)
     scan : a validated scan (simulated, or from :meth:`SonarScan.from_readings`).
     params : range tolerance, minimum width and the Type IV jump threshold.
     primitive : True: every run, whatever its width (for the open space). False: only
-        RCDs at least ``min_width_deg`` wide (for matching and counts). Types come from
-        the neighbouring readings either way.
+        RCDs at least ``min_width_deg`` wide and not at max range (for matching and
+        counts: a run of readings that returned no echo is no target's region of
+        constant depth). Types come from the neighbouring readings either way.
 
     Returns
     -------
@@ -196,5 +197,6 @@ def extract_rcds(scan: SonarScan, params: RcdParams, *, primitive: bool = False)
     rcds = Rcds(*(np.array(col, dtype=dt) for col, dt in zip(cols, dtypes)))
     if primitive:
         return rcds
-    return rcds.select(rcds.width >= np.radians(params.min_width_deg) - 1e-9)
+    echo = rcds.range < scan.params.max_range - tol
+    return rcds.select(echo & (rcds.width >= np.radians(params.min_width_deg) - 1e-9))
 

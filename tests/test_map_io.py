@@ -27,7 +27,7 @@ def awkward_mass(rng: np.random.Generator) -> MassFunction:
 @pytest.fixture
 def bm() -> BeliefMap:
     rng = np.random.default_rng(5)
-    bm = BeliefMap(FRAME, "dempster", config={"noise": {"threshold": 0.5}}, segments=[{"id": 0, "p": [0.1, 1 / 3]}])
+    bm = BeliefMap(FRAME, "dempster", config={"noise": {"threshold": 0.5}}, notes=[{"id": 0, "p": [0.1, 1 / 3]}])
     bm.add_point("E2", (4 / 3, 1e-300), "endpoint", awkward_mass(rng))  # added first: u -> v order must survive
     bm.add_point("C1", (0.1 + 0.2, -2 / 7), "corner", awkward_mass(rng), shape="concave", reinforced=True)
     bm.add_point("U1", (3.25, math.pi), "unidentified", awkward_mass(rng),

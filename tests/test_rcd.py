@@ -29,9 +29,11 @@ def test_types_one_to_four_from_the_neighbouring_readings():
     # 360 readings: I (1.0, longer both sides), II (1.5: 1.0 one side, 2.0 the other),
     # III (2.5 between 2.0 and 2.2), IV by jump (4.0 next to 2.2), IV at max range.
     r = profile((1.5, 20), (1.0, 20), (1.5, 20), (2.0, 40), (2.5, 20), (2.2, 40), (4.0, 20), (2.2, 40), (10.0, 140))
-    rcds = extract_rcds(full_scan(r), PARAMS)
+    rcds = extract_rcds(full_scan(r), PARAMS, primitive=True)
     got = dict(zip(np.round(rcds.range, 3).tolist(), rcds.type.tolist()))
     assert got[1.0] == 1 and got[2.5] == 3 and got[4.0] == 4 and got[10.0] == 4
+    # no echo is no target: the run at max range is not an RCD for matching and counts
+    assert 10.0 not in np.round(extract_rcds(full_scan(r), PARAMS).range, 3).tolist()
     assert got[2.0] == 2  # 1.5 before (shorter), 2.5 after (longer)
     types_15 = rcds.type[np.isclose(rcds.range, 1.5)]
     assert sorted(types_15.tolist()) == [2, 2]  # 10.0 | 1.5 | 1.0 and 1.0 | 1.5 | 2.0
@@ -85,7 +87,8 @@ def test_constant_closed_scan_is_one_rcd_without_neighbours():
     assert len(rcds) == 1 and rcds.type[0] == 1 and rcds.count[0] == 360
     assert np.isnan(rcds.prev_range[0]) and np.isnan(rcds.next_range[0])
     assert np.degrees(rcds.width[0]) == pytest.approx(360.0)
-    assert extract_rcds(full_scan(np.full(360, 10.0)), PARAMS).type.tolist() == [4]
+    assert extract_rcds(full_scan(np.full(360, 10.0)), PARAMS, primitive=True).type.tolist() == [4]
+    assert len(extract_rcds(full_scan(np.full(360, 10.0)), PARAMS)) == 0
 
 
 def test_partial_scan_ends_have_no_neighbour():

@@ -1,0 +1,67 @@
+"""What the robot senses from one pose: a rotational sonar scan and the LSL segments.
+
+An :class:`Observation` is the input of :meth:`maps.BeliefMap.update`. It comes
+from the simulated world (:func:`observe`) or from real sensors: build a
+:class:`~sources.sonar.SonarScan` with :meth:`~sources.sonar.SonarScan.from_readings`
+and an :class:`~sources.lsl.LslSegments` from the extracted line segments.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sources.config import Config
+from sources.lsl import LslSegments, observe_lsl
+from sources.sonar import SonarScan, simulate_scan
+from sources.world import World
+
+__all__ = ["SONAR_STREAM", "Observation", "observe"]
+
+SONAR_STREAM = 1
+"""Stream number of the sonar range noise: ``default_rng([seed, pose_index, 1])``."""
+
+
+@dataclass(frozen=True, eq=False)
+class Observation:
+    """One pose's sensing: the sonar scan (which holds the pose) and the LSL segments.
+
+    Attributes
+    ----------
+    pose_index : index of the pose in the run (0, 1, ...); evidence records name it.
+    sonar : the actual rotational sonar scan.
+    lsl : the LSL line segments seen from the same pose.
+    """
+
+    pose_index: int
+    sonar: SonarScan
+    lsl: LslSegments
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.pose_index, int | np.integer) or self.pose_index < 0:
+            raise ValueError(f"pose_index must be an integer >= 0, got {self.pose_index!r}")
+
+    @property
+    def pose(self) -> NDArray[np.float64]:
+        """(3,) x, y (m) and heading (rad) of the robot."""
+        return self.sonar.pose
+
+
+def observe(world: World, pose_index: int, config: Config) -> Observation:
+    """Simulate both sensors of the world from one of its poses.
+
+    The scenario's ``sensors`` section overrides the config's sensor parameters;
+    all noise comes from the scenario's seed (sonar: stream :data:`SONAR_STREAM`).
+
+    >>> from sources.config import load_config
+    >>> from sources.scenario import default_scenario
+    >>> obs = observe(World(default_scenario()), 0, load_config())
+    >>> len(obs.sonar), int((obs.lsl.truth == "noise").sum())
+    (360, 28)
+    """
+    sonar, lsl = world.scenario.sensor_params(config.sensors.sonar, config.sensors.lsl)
+    rng = np.random.default_rng([world.seed, pose_index, SONAR_STREAM])
+    scan = simulate_scan(world.surfaces(), world.poses[pose_index], sonar, rng=rng)
+    return Observation(pose_index, scan, observe_lsl(world, pose_index, lsl))

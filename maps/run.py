@@ -1,0 +1,117 @@
+"""One run of the paper's experiment on a scenario: sense every pose, fold it into a map, report.
+
+:func:`run_scenario` is what ``evmap run`` computes; :func:`report` and
+:func:`segment_records` give ``report.json`` and ``segments.json`` of
+``shared/SCENARIO.md``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from maps.belief_map import BeliefMap
+from maps.observation import Observation, observe
+from maps.pipeline import PoseOutcome, new_map
+from maps.segments import SegmentStore
+from sources.config import Config
+from sources.scenario import Scenario
+from sources.world import World
+
+__all__ = ["Run", "report", "run_scenario", "segment_records"]
+
+
+@dataclass(frozen=True, eq=False)
+class Run:
+    """Everything one run computed.
+
+    Attributes
+    ----------
+    world : the simulated world; config : the config (its rule included).
+    observations : one per pose; outcomes : what each update did.
+    map : the final belief map; seconds : ``simulate``, ``fuse`` and ``total`` (computation only).
+    """
+
+    world: World
+    config: Config
+    observations: list[Observation]
+    outcomes: list[PoseOutcome]
+    map: BeliefMap
+    seconds: dict[str, float]
+
+
+def run_scenario(scenario: Scenario, config: Config) -> Run:
+    """Simulate the scenario's sensors at every pose and fold each pose into one belief map.
+
+    >>> from sources.config import load_config
+    >>> from sources.scenario import default_scenario
+    >>> run = run_scenario(default_scenario(), load_config())
+    >>> run.map.rule, len(run.outcomes)
+    ('dempster', 1)
+    """
+    world = World(scenario)
+    start = time.perf_counter()
+    observations = [observe(world, k, config) for k in range(len(world.poses))]
+    sensed = time.perf_counter()
+    bm = new_map(config)
+    outcomes = [bm.update(obs) for obs in observations]
+    done = time.perf_counter()
+    seconds = {"simulate": sensed - start, "fuse": done - sensed, "total": done - start}
+    return Run(world, config, observations, outcomes, bm, seconds)
+
+
+def report(run: Run) -> dict[str, Any]:
+    """The figures of ``report.json`` (``shared/SCENARIO.md``)."""
+    store: SegmentStore = run.map.segments
+    noise = store.truth == "noise"
+    real = store.truth == "real"
+    bm = run.map
+    kinds = [d["kind"] for _, d in bm.graph.nodes(data=True)]
+    return {
+        "scenario": run.world.name,
+        "rule": run.config.rule,
+        "poses": len(run.observations),
+        "lsl_segments": len(store),
+        "noise_segments": int(noise.sum()),
+        "noise_eliminated": int((store.eliminated & noise).sum()),
+        "real_eliminated": int((store.eliminated & real).sum()),
+        "lines_before_merge": int((~store.eliminated).sum()),
+        "lines_after_merge": bm.graph.number_of_edges(),
+        "corners": kinds.count("corner"),
+        "rcds_actual": sum(len(o.actual) for o in run.outcomes),
+        "rcds_simulated": sum(len(o.predicted) for o in run.outcomes),
+        "rcds_matched": sum(len(o.matched[0]) for o in run.outcomes),
+        "unidentified": kinds.count("unidentified"),
+        "noise_recall": _share(store.eliminated & noise, noise),
+        "real_loss": _share(store.eliminated & real, real),
+        "seconds": dict(run.seconds),
+    }
+
+
+def segment_records(run: Run) -> list[dict[str, Any]]:
+    """``segments.json``: every LSL segment before fusion, with its verdict."""
+    store: SegmentStore = run.map.segments
+    frame = run.map.frame
+    labels = [frame.label(mask) for mask in range(store.mass.shape[1])]
+    return [
+        {
+            "id": i,
+            "pose": int(store.pose[i]),
+            "p": store.p[i].tolist(),
+            "q": store.q[i].tolist(),
+            "truth": str(store.truth[i]),
+            "relation": str(store.relation[i]),
+            "mass": {labels[m]: float(v) for m, v in enumerate(store.mass[i]) if v > 0 or labels[m] != ""},
+            "eliminated": bool(store.eliminated[i]),
+        }
+        for i in range(len(store))
+    ]
+
+
+def _share(part: np.ndarray, whole: np.ndarray) -> float:
+    """part / whole as a fraction of counts; 0 when whole is empty."""
+    n = int(whole.sum())
+    return int(part.sum()) / n if n else 0.0
