@@ -9,11 +9,12 @@ above ``noise.threshold`` is eliminated.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from evidential import combine_batch
 from sources.config import Config
@@ -42,8 +43,17 @@ class NoiseEvidence:
     eliminated: NDArray[np.bool_]
 
 
-def noise_evidence(p: NDArray[np.float64], q: NDArray[np.float64], open_space: shapely.Geometry, config: Config) -> NoiseEvidence:
+def noise_evidence(
+    p: NDArray[np.float64],
+    q: NDArray[np.float64],
+    open_space: shapely.Geometry,
+    config: Config,
+    features: Mapping[str, ArrayLike] | None = None,
+) -> NoiseEvidence:
     """Judge segments p-q against the sonar open space with the config's noise-elimination sources.
+
+    The sources read the features ``relation`` and ``length`` (computed here) and
+    any others given in ``features`` (one value per segment).
 
     >>> from sources.config import load_config
     >>> room = shapely.box(0, 0, 4, 4)
@@ -56,7 +66,7 @@ def noise_evidence(p: NDArray[np.float64], q: NDArray[np.float64], open_space: s
     frame = config.frame
     if "noise" not in frame.elements:
         raise ValueError(f"{config.name}: noise elimination needs an element 'noise' in the frame {frame!r}")
-    features = {"relation": relation(p, q, open_space, config.noise), "length": np.hypot(*(q - p).T)}
+    features = {**(features or {}), "relation": relation(p, q, open_space, config.noise), "length": np.hypot(*(q - p).T)}
     batches = [source.masses(features) for source in config.stage_sources("noise_elimination")]
     fused = np.ascontiguousarray(combine_batch(*batches, rule=config.rule))
     k = combine_batch(*batches, rule="conjunctive")[:, 0] if len(batches) > 1 else np.zeros(len(p))

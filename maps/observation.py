@@ -8,10 +8,11 @@ and an :class:`~sources.lsl.LslSegments` from the extracted line segments.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from sources.config import Config
 from sources.lsl import LslSegments, observe_lsl
@@ -33,15 +34,27 @@ class Observation:
     pose_index : index of the pose in the run (0, 1, ...); evidence records name it.
     sonar : the actual rotational sonar scan.
     lsl : the LSL line segments seen from the same pose.
+    features : further per-segment features for the config's noise-elimination
+        sources, name -> one value per LSL segment (a new sensor's reading of
+        each segment, say ``{"ir_return": [...]}``); the pipeline computes
+        ``relation`` and ``length`` itself.
     """
 
     pose_index: int
     sonar: SonarScan
     lsl: LslSegments
+    features: Mapping[str, ArrayLike] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.pose_index, int | np.integer) or self.pose_index < 0:
             raise ValueError(f"pose_index must be an integer >= 0, got {self.pose_index!r}")
+        for name, values in self.features.items():
+            if name in ("relation", "length"):
+                raise ValueError(f"feature {name!r} is computed by the pipeline; an observation cannot bring it")
+            if np.shape(values) != (len(self.lsl),):
+                raise ValueError(
+                    f"feature {name!r} needs one value per LSL segment ({len(self.lsl)}), got shape {np.shape(values)}"
+                )
 
     @property
     def pose(self) -> NDArray[np.float64]:

@@ -116,7 +116,7 @@ def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOut
     bm.open_space = shapely.union(bm.open_space, space) if not bm.open_space.is_empty else space
 
     # 2. noise elimination of the new segments and of the stored ones the new open space reaches
-    new = store.append(obs.lsl.p, obs.lsl.q, np.full(len(obs.lsl), obs.pose_index), obs.lsl.truth)
+    new = store.append(obs.lsl.p, obs.lsl.q, np.full(len(obs.lsl), obs.pose_index), obs.lsl.truth, obs.features)
     margin = config.merge.distance + config.merge.gap
     bounds = np.array(shapely.total_bounds(space)) if not space.is_empty else np.array([*pose[:2], *pose[:2]])
     if len(new):
@@ -173,7 +173,8 @@ def map_surfaces(bm: BeliefMap) -> Surfaces:
 def _judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
     """Noise elimination of the stored segments ``ids`` against the map's open space."""
     store: SegmentStore = bm.segments
-    ev = noise_evidence(store.p[ids], store.q[ids], bm.open_space, config)
+    features = {name: column[ids] for name, column in store.features.items()}
+    ev = noise_evidence(store.p[ids], store.q[ids], bm.open_space, config, features)
     store.relation[ids] = ev.relation
     store.mass[ids] = ev.fused
     store.conflict[ids] = ev.conflict
@@ -224,8 +225,12 @@ def _rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint
     for n in affected:
         bm.remove_point(n)
 
-    # the new lines: fitted ends, base mass from merged length and relation, sonar records carried over
-    base = noise_evidence(merged.p, merged.q, bm.open_space, config)
+    # the new lines: fitted ends, base mass from merged length and relation (other features
+    # from the longest member), sonar records carried over
+    pool_length = np.hypot(*(store.q[pool] - store.p[pool]).T)
+    longest = np.array([pool[g][np.argmax(pool_length[g])] for g in merged.groups], dtype=np.intp)
+    features = {name: column[longest] for name, column in store.features.items()}
+    base = noise_evidence(merged.p, merged.q, bm.open_space, config, features)
     lines = kept
     for k, group in enumerate(merged.groups):
         members = pool[group]

@@ -4,130 +4,198 @@ Every line of the map is made of raw segments (section III: merging), and a
 segment's relation to the open space can change when a later pose adds open
 space, so the map keeps them all: where they are, which pose saw them, their
 relation to the open space, their fused mass of the noise-elimination stage,
-whether they were eliminated, and the map line they belong to. Arrays, one row
-a segment, appended to as observations arrive; ``to_json`` / ``from_json``
-carry them in ``map.json``.
+whether they were eliminated, the map line they belong to, and any further
+per-segment features an observation brought for the config's sources. Columns
+are numpy arrays, one row a segment; appending is amortised O(rows added), so
+an observation costs the same however many segments the map already holds.
+``to_json`` / ``from_json`` carry the store in ``map.json``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from evidential import Frame
 
-__all__ = ["SegmentStore"]
+__all__ = ["COLUMNS", "SegmentStore"]
+
+COLUMNS: tuple[str, ...] = ("p", "q", "pose", "truth", "relation", "mass", "conflict", "eliminated", "line")
+"""The columns every store has (see :class:`SegmentStore`)."""
 
 
-@dataclass(eq=False)
 class SegmentStore:
-    """Raw segments, one row each; ids are row numbers.
+    """Raw segments, one row each; a segment's id is its row number.
 
-    Attributes
-    ----------
-    p, q : (N, 2) end points.
-    pose : (N,) index of the pose that saw the segment.
-    truth : (N,) ground truth of a simulated segment, ``"real"`` or ``"noise"`` (``""`` if unknown).
-    relation : (N,) ``outside | partly_inside | inside`` against the map's open space.
-    mass : (N, 2**n) fused mass of the noise-elimination stage (columns by bitmask).
-    conflict : (N,) K between the noise-elimination stage's sources.
-    eliminated : (N,) removed as noise.
-    line : (N,) id of the map line the segment belongs to (``""`` if eliminated).
+    Columns (views of length N, writable in place):
+
+    - ``p``, ``q``: (N, 2) end points.
+    - ``pose``: (N,) index of the pose that saw the segment.
+    - ``truth``: (N,) ground truth of a simulated segment, ``"real"`` or ``"noise"`` (``""`` if unknown).
+    - ``relation``: (N,) ``outside | partly_inside | inside`` against the map's open space.
+    - ``mass``: (N, 2**n) fused mass of the noise-elimination stage (columns by bitmask).
+    - ``conflict``: (N,) K between the noise-elimination stage's sources.
+    - ``eliminated``: (N,) removed as noise.
+    - ``line``: (N,) id of the map line the segment belongs to (``""`` if none).
+    - ``features``: name -> (N,) further features observations brought (e.g. an infrared reading).
+
+    >>> store = SegmentStore.empty(Frame(["real", "noise"]))
+    >>> store.append([[0.0, 0.0]], [[1.0, 0.0]], [0], ["real"], {"ir_return": ["echo"]}).tolist()
+    [0]
+    >>> len(store), store.length.tolist(), store.features["ir_return"].tolist()
+    (1, [1.0], ['echo'])
     """
 
-    p: NDArray[np.float64]
-    q: NDArray[np.float64]
-    pose: NDArray[np.intp]
-    truth: NDArray[np.str_]
-    relation: NDArray[np.str_]
-    mass: NDArray[np.float64]
-    conflict: NDArray[np.float64]
-    eliminated: NDArray[np.bool_]
-    line: NDArray[np.object_]
+    def __init__(self, frame: Frame) -> None:
+        self._n = 0
+        self._data: dict[str, NDArray[Any]] = {
+            "p": np.zeros((0, 2)),
+            "q": np.zeros((0, 2)),
+            "pose": np.zeros(0, dtype=np.intp),
+            "truth": np.zeros(0, dtype="<U5"),
+            "relation": np.zeros(0, dtype="<U13"),
+            "mass": np.zeros((0, 1 << len(frame))),
+            "conflict": np.zeros(0),
+            "eliminated": np.zeros(0, dtype=bool),
+            "line": np.zeros(0, dtype=object),
+        }
+        self._features: dict[str, NDArray[Any]] = {}
 
     @classmethod
     def empty(cls, frame: Frame) -> SegmentStore:
-        """A store with no segments, for masses over ``frame``.
-
-        >>> len(SegmentStore.empty(Frame(["real", "noise"])))
-        0
-        """
-        return cls(
-            p=np.zeros((0, 2)),
-            q=np.zeros((0, 2)),
-            pose=np.zeros(0, dtype=np.intp),
-            truth=np.zeros(0, dtype="<U5"),
-            relation=np.zeros(0, dtype="<U13"),
-            mass=np.zeros((0, 1 << len(frame))),
-            conflict=np.zeros(0),
-            eliminated=np.zeros(0, dtype=bool),
-            line=np.zeros(0, dtype=object),
-        )
+        """A store with no segments, for masses over ``frame``."""
+        return cls(frame)
 
     def __len__(self) -> int:
-        return len(self.p)
+        return self._n
+
+    def __getattr__(self, name: str) -> NDArray[Any]:
+        data = self.__dict__.get("_data")
+        if data is None or name not in data:
+            raise AttributeError(name)
+        return data[name][: self._n]
+
+    @property
+    def features(self) -> dict[str, NDArray[Any]]:
+        """The further per-segment features, name -> (N,) array."""
+        return {name: column[: self._n] for name, column in self._features.items()}
 
     @property
     def length(self) -> NDArray[np.float64]:
         """(N,) segment lengths."""
         return np.hypot(*(self.q - self.p).T)
 
-    def append(self, p: NDArray[np.float64], q: NDArray[np.float64], pose: NDArray[np.intp], truth: NDArray[np.str_]) -> NDArray[np.intp]:
-        """Add segments, not yet judged (relation ``""``, zero mass); return their ids."""
+    def append(
+        self,
+        p: ArrayLike,
+        q: ArrayLike,
+        pose: ArrayLike,
+        truth: ArrayLike,
+        features: Mapping[str, ArrayLike] | None = None,
+    ) -> NDArray[np.intp]:
+        """Add segments, not yet judged (relation ``""``, zero mass, no line); return their ids.
+
+        ``features`` must name the same features as the segments already stored.
+        """
+        p = np.asarray(p, dtype=float).reshape(-1, 2)
         k = len(p)
-        start = len(self)
-        self.p = np.concatenate([self.p, p])
-        self.q = np.concatenate([self.q, q])
-        self.pose = np.concatenate([self.pose, pose]).astype(np.intp)
-        self.truth = np.concatenate([self.truth, truth]).astype("<U5")
-        self.relation = np.concatenate([self.relation, np.full(k, "", dtype="<U13")])
-        self.mass = np.concatenate([self.mass, np.zeros((k, self.mass.shape[1]))])
-        self.conflict = np.concatenate([self.conflict, np.zeros(k)])
-        self.eliminated = np.concatenate([self.eliminated, np.zeros(k, dtype=bool)])
-        self.line = np.concatenate([self.line, np.full(k, "", dtype=object)])
-        return np.arange(start, start + k)
+        features = dict(features or {})
+        if self._n and set(features) != set(self._features):
+            raise ValueError(
+                f"an observation brings features {sorted(features)}, the map's segments have {sorted(self._features)}"
+            )
+        new = {"p": p, "q": q, "pose": pose, "truth": truth}
+        for name, values in features.items():
+            column = np.asarray(values)
+            if column.shape != (k,):
+                raise ValueError(f"feature {name!r} needs one value per segment ({k}), got shape {column.shape}")
+            if name not in self._features:
+                self._features[name] = np.zeros(0, dtype=column.dtype)
+            new[name] = column
+        self._reserve(self._n + k)
+        rows = slice(self._n, self._n + k)
+        for name, values in new.items():
+            target = self._features[name] if name in self._features else self._data[name]
+            if target.dtype.kind == "U" and np.asarray(values).dtype.itemsize > target.dtype.itemsize:
+                self._widen(name, np.asarray(values).dtype)
+                target = self._features[name] if name in self._features else self._data[name]
+            target[rows] = values
+        self._data["line"][rows] = ""
+        self._n += k
+        return np.arange(rows.start, rows.stop)
 
     def near(self, bounds: tuple[float, float, float, float]) -> NDArray[np.intp]:
         """Ids of the segments whose bounding boxes meet ``bounds`` = (xmin, ymin, xmax, ymax)."""
         xmin, ymin, xmax, ymax = bounds
-        lo = np.minimum(self.p, self.q)
-        hi = np.maximum(self.p, self.q)
-        hit = (lo[:, 0] <= xmax) & (hi[:, 0] >= xmin) & (lo[:, 1] <= ymax) & (hi[:, 1] >= ymin)
+        p, q = self.p, self.q
+        hit = (np.minimum(p[:, 0], q[:, 0]) <= xmax) & (np.maximum(p[:, 0], q[:, 0]) >= xmin)
+        hit &= (np.minimum(p[:, 1], q[:, 1]) <= ymax) & (np.maximum(p[:, 1], q[:, 1]) >= ymin)
         return np.flatnonzero(hit)
 
     def to_json(self) -> dict[str, Any]:
         """The store as JSON-able lists (floats round-trip exactly)."""
-        return {f.name: getattr(self, f.name).tolist() for f in fields(self)}
+        out: dict[str, Any] = {name: getattr(self, name).tolist() for name in COLUMNS}
+        out["features"] = {name: column.tolist() for name, column in self.features.items()}
+        return out
 
     @classmethod
-    def from_json(cls, data: dict[str, Any], frame: Frame) -> SegmentStore:
+    def from_json(cls, data: Any, frame: Frame) -> SegmentStore:
         """The store written by :meth:`to_json`; a ValueError names a missing or malformed column.
 
         >>> frame = Frame(["real", "noise"])
         >>> store = SegmentStore.empty(frame)
-        >>> ids = store.append(np.array([[0.0, 0.0]]), np.array([[1.0, 0.0]]), np.array([0]), np.array(["real"]))
+        >>> ids = store.append([[0.0, 0.0]], [[1.0, 0.0]], [0], ["real"])
         >>> SegmentStore.from_json(store.to_json(), frame).q.tolist()
         [[1.0, 0.0]]
         """
-        empty = cls.empty(frame)
-        columns = {}
-        for f in fields(cls):
-            if not isinstance(data, dict) or f.name not in data:
-                raise ValueError(f"segments: column {f.name!r} is missing")
-            template = getattr(empty, f.name)
+        store = cls(frame)
+        if not isinstance(data, dict):
+            raise ValueError("segments: expected an object of columns")
+        columns: dict[str, NDArray[Any]] = {}
+        for name in COLUMNS:
+            if name not in data:
+                raise ValueError(f"segments: column {name!r} is missing")
+            template = store._data[name]
             try:
-                column = np.array(data[f.name], dtype=template.dtype)
-                if len(column) == 0:
-                    column = column.reshape(template.shape)
+                column = np.array(data[name], dtype=template.dtype if template.dtype.kind != "U" else str)
             except (TypeError, ValueError) as exc:
-                raise ValueError(f"segments.{f.name}: {exc}") from None
+                raise ValueError(f"segments.{name}: {exc}") from None
+            if column.size == 0:
+                column = column.reshape(template.shape)
             if column.shape[1:] != template.shape[1:]:
-                raise ValueError(f"segments.{f.name}: rows of shape {template.shape[1:]} expected, got {column.shape[1:]}")
-            columns[f.name] = column
+                raise ValueError(f"segments.{name}: rows of shape {template.shape[1:]} expected, got {column.shape[1:]}")
+            columns[name] = column
+        features = data.get("features", {})
+        if not isinstance(features, dict):
+            raise ValueError("segments.features: expected an object of columns")
+        for name, values in features.items():
+            columns[name] = np.array(values)
         lengths = {name: len(c) for name, c in columns.items()}
         if len(set(lengths.values())) > 1:
             raise ValueError(f"segments: columns of different lengths {lengths}")
-        return cls(**columns)
+        n = len(columns["p"])
+        store._data = {name: columns[name] for name in COLUMNS}
+        store._data["line"] = columns["line"].astype(object)
+        store._features = {name: columns[name] for name in features}
+        store._n = n
+        return store
+
+    def _reserve(self, rows: int) -> None:
+        """Grow every column's capacity to at least ``rows``, doubling."""
+        capacity = len(self._data["p"])
+        if rows <= capacity:
+            return
+        size = max(rows, 2 * capacity, 64)
+        for columns in (self._data, self._features):
+            for name, column in columns.items():
+                grown = np.zeros((size, *column.shape[1:]), dtype=column.dtype)
+                grown[: self._n] = column[: self._n]
+                columns[name] = grown
+
+    def _widen(self, name: str, dtype: np.dtype[Any]) -> None:
+        """Give a string column room for longer strings."""
+        columns = self._features if name in self._features else self._data
+        columns[name] = columns[name].astype(dtype)

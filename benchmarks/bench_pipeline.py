@@ -1,0 +1,71 @@
+"""Speed of the paper's pipeline: one whole run of the default scenario, and how it grows.
+
+Prints the median ``seconds.total`` of a single-pose run of the embedded corridor
+(the computation only: sensing and fusion, no figures, no file I/O; target
+< 0.5 s), then the fusion time of the same corridor as the number of LSL
+segments grows (more sunlight phantoms in the same region), with the growth
+ratio per tenfold more segments.
+
+    .venv/bin/python benchmarks/bench_pipeline.py
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import numpy as np
+
+from maps.observation import observe
+from maps.pipeline import new_map
+from maps.run import run_scenario
+from sources.config import load_config
+from sources.scenario import default_scenario
+from sources.world import World
+
+REPEATS = 15
+
+
+def median_run(scenario, config) -> tuple[float, dict[str, float]]:
+    """Median of ``seconds.total`` over REPEATS runs, and the stages' medians."""
+    runs = [run_scenario(scenario, config).seconds for _ in range(REPEATS)]
+    return statistics.median(r["total"] for r in runs), {
+        k: statistics.median(r[k] for r in runs) for k in ("simulate", "fuse")
+    }
+
+
+def fuse_time(scenario, config) -> tuple[int, float]:
+    """Segments seen, and the median time of folding the one observation into a new map."""
+    obs = observe(World(scenario), 0, config)
+    times = []
+    for _ in range(REPEATS):
+        bm = new_map(config)
+        start = time.perf_counter()
+        bm.update(obs)
+        times.append(time.perf_counter() - start)
+    return len(obs.lsl), statistics.median(times)
+
+
+def main() -> None:
+    config = load_config()
+    corridor = default_scenario()
+    total, stages = median_run(corridor, config)
+    print(f"default corridor, one pose: seconds.total median {total * 1e3:.1f} ms "
+          f"(simulate {stages['simulate'] * 1e3:.1f} ms, fuse {stages['fuse'] * 1e3:.1f} ms); target < 500 ms")
+
+    print("\nfusion time against the number of LSL segments (phantoms added to the corridor's sunlight):")
+    print(f"{'segments':>9} {'fuse ms':>9}")
+    sizes, times = [], []
+    for lines in (28, 100, 300, 1000, 3000):
+        region = corridor.world.sunlight[0].model_copy(update={"lines": lines})
+        world = corridor.world.model_copy(update={"sunlight": [region]})
+        n, t = fuse_time(corridor.model_copy(update={"world": world}), config)
+        sizes.append(n)
+        times.append(t)
+        print(f"{n:>9} {t * 1e3:>9.1f}")
+    slope = np.polyfit(np.log10(sizes), np.log10(times), 1)[0]
+    print(f"growth: time ~ segments^{slope:.2f} (x{10 ** slope:.1f} per tenfold more segments)")
+
+
+if __name__ == "__main__":
+    main()

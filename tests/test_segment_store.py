@@ -1,0 +1,86 @@
+"""The raw segment store behind a map, and observations that bring a new sensor's features."""
+
+import numpy as np
+import pytest
+
+import configs
+from evidential import Frame
+from maps.observation import Observation, observe
+from maps.pipeline import new_map
+from maps.segments import SegmentStore
+from sources.config import load_config
+from sources.scenario import default_scenario
+from sources.world import World
+
+FRAME = Frame(["real", "noise"])
+
+
+def test_append_grows_and_columns_are_writable_views():
+    store = SegmentStore.empty(FRAME)
+    for k in range(100):
+        ids = store.append([[k, 0.0]], [[k, 1.0]], [k % 3], ["real" if k % 2 else "noise"])
+        assert ids.tolist() == [k]
+    assert len(store) == 100 and store.p.shape == (100, 2) and store.mass.shape == (100, 4)
+    store.relation[[3, 5]] = "inside"
+    store.eliminated[3] = True
+    assert store.relation[3] == "inside" and store.eliminated.sum() == 1 and store.line[99] == ""
+    assert store.near((10.5, -1, 12.5, 2)).tolist() == [11, 12]
+
+
+def test_json_round_trip_with_features_is_exact():
+    store = SegmentStore.empty(FRAME)
+    store.append([[0.1, 1 / 3]], [[2.0, 0.7]], [0], ["noise"], {"ir_return": ["beyond"], "echo": [0.25]})
+    store.mass[0] = [0.0, 0.1, 0.7, 0.2]
+    back = SegmentStore.from_json(store.to_json(), FRAME)
+    assert back.to_json() == store.to_json()
+    assert back.p[0, 1] == 1 / 3 and back.features["echo"].tolist() == [0.25]
+    back.append([[5.0, 5.0]], [[6.0, 5.0]], [1], ["real"], {"ir_return": ["no_return"], "echo": [0.5]})
+    assert back.features["ir_return"].tolist() == ["beyond", "no_return"]
+
+
+def test_bad_store_data_names_the_column():
+    data = SegmentStore.empty(FRAME).to_json()
+    del data["mass"]
+    with pytest.raises(ValueError, match="'mass' is missing"):
+        SegmentStore.from_json(data, FRAME)
+    data = SegmentStore.empty(FRAME).to_json()
+    data["p"] = [[0.0, 0.0]]
+    with pytest.raises(ValueError, match="different lengths"):
+        SegmentStore.from_json(data, FRAME)
+
+
+def test_features_must_match_the_segments_already_stored():
+    store = SegmentStore.empty(FRAME)
+    store.append([[0, 0]], [[1, 0]], [0], ["real"], {"ir_return": ["echo"]})
+    with pytest.raises(ValueError, match="brings features"):
+        store.append([[0, 0]], [[1, 0]], [1], ["real"])
+    with pytest.raises(ValueError, match="one value per segment"):
+        store.append([[0, 0]], [[1, 0]], [1], ["real"], {"ir_return": ["echo", "echo"]})
+
+
+def test_a_new_sensor_defined_in_yaml_takes_part_in_noise_elimination():
+    """configs/examples/infrared.yaml: an infrared reading per segment, brought by the observation."""
+    base = load_config()
+    infrared = load_config(configs.path("examples/infrared.yaml"))
+    obs = observe(World(default_scenario()), 0, base)
+    plain = new_map(base)
+    plain.update(obs)
+    with pytest.raises(ValueError, match="ir_return"):
+        new_map(infrared).update(obs)  # the new source needs its feature
+    # the IR beam passes through every phantom and returns from every real surface
+    ir = np.where(obs.lsl.truth == "noise", "beyond", "echo")
+    bm = new_map(infrared)
+    bm.update(Observation(obs.pose_index, obs.sonar, obs.lsl, {"ir_return": ir}))
+    noise = bm.segments.truth == "noise"
+    col = FRAME.mask("noise")
+    assert (bm.segments.mass[noise, col] >= plain.segments.mass[noise, col]).all()
+    assert (bm.segments.mass[~noise, col] <= plain.segments.mass[~noise, col]).all()
+    assert bm.segments.features["ir_return"].tolist() == ir.tolist()
+
+
+def test_observation_features_are_checked():
+    obs = observe(World(default_scenario()), 0, load_config())
+    with pytest.raises(ValueError, match="one value per LSL segment"):
+        Observation(0, obs.sonar, obs.lsl, {"ir_return": ["echo"]})
+    with pytest.raises(ValueError, match="computed by the pipeline"):
+        Observation(0, obs.sonar, obs.lsl, {"length": np.ones(len(obs.lsl))})
