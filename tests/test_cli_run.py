@@ -1,0 +1,119 @@
+"""`evmap run`, through main() and the installed script: artefacts, --json, and refusals that leave no trace."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from evidential import RULES
+from maps.cli import main
+
+SCENARIOS = Path(__file__).parent / "scenarios"
+SMALL = str(SCENARIOS / "pipeline_small.yaml")
+BAD_CONFIG = str(Path(__file__).parent / "configs" / "bad_sum.yaml")
+
+ARTEFACTS = {"report.json", "segments.json", "map.json"}
+FIGURES = {
+    "fig2_sonar_scan_rcds.png",
+    "fig4_lsl_lines.png",
+    "fig5_open_space.png",
+    "fig6a_noise_eliminated.png",
+    "fig6b_merged_corners.png",
+    "fig6c_rcd_matching.png",
+    "fig7_final_map.png",
+}
+
+
+def evmap(capsys, *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_run_writes_the_artefacts_and_logs_on_stderr_only(capsys, tmp_path):
+    out = tmp_path / "out"
+    code, stdout, stderr = evmap(capsys, "run", "--out", str(out))
+    assert code == 0, stderr
+    assert stdout == ""  # without --json nothing goes to standard output
+    assert "corridor" in stderr and str(out) in stderr
+    assert {p.name for p in out.iterdir()} == ARTEFACTS | FIGURES
+    assert all((out / name).read_bytes().startswith(b"\x89PNG") for name in FIGURES)
+    summary = json.loads((out / "report.json").read_text())
+    assert summary["scenario"] == "corridor" and summary["rule"] == "dempster" and summary["poses"] == 1
+    assert len(json.loads((out / "segments.json").read_text())) == summary["lsl_segments"]
+    assert len(json.loads((out / "map.json").read_text())["edges"]) == summary["lines_after_merge"]
+
+
+def test_installed_script_prints_exactly_report_json_on_stdout(tmp_path):
+    out = tmp_path / "out"
+    script = Path(sys.executable).parent / "evmap"
+    done = subprocess.run(
+        [script, "run", "--out", str(out), "--json"], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    written = (out / "report.json").read_text()
+    assert done.stdout == written
+    assert json.loads(done.stdout) == json.loads(written)
+    assert "evmap: running scenario 'corridor'" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_a_bad_scenario_exits_2_naming_file_and_key_and_leaves_no_directory(capsys, tmp_path):
+    out = tmp_path / "out"
+    bad = str(SCENARIOS / "pipeline_bad.yaml")
+    code, stdout, stderr = evmap(capsys, "run", bad, "--out", str(out))
+    assert code == 2 and stdout == ""
+    assert f"{bad}: world.walls[1].material: unknown material" in stderr
+    assert "Traceback" not in stderr
+    assert not out.exists()
+    assert list(tmp_path.iterdir()) == []  # no staging directory left either
+
+
+def test_a_non_empty_directory_is_refused_without_force_and_left_untouched(capsys, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    code, stdout, stderr = evmap(capsys, "run", SMALL, "--out", str(out))
+    assert code == 2 and stdout == ""
+    assert "not empty" in stderr and "--force" in stderr and "Traceback" not in stderr
+    assert [p.name for p in out.iterdir()] == ["notes.txt"] and (out / "notes.txt").read_text() == "mine"
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]
+
+
+def test_force_replaces_a_non_empty_directory(capsys, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    code, _, stderr = evmap(capsys, "run", SMALL, "--out", str(out), "--force")
+    assert code == 0, stderr
+    assert {p.name for p in out.iterdir()} == ARTEFACTS | FIGURES
+    assert json.loads((out / "report.json").read_text())["scenario"] == "pipeline-small"
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]
+
+
+def test_an_unknown_rule_exits_2_naming_the_known_rules(capsys, tmp_path):
+    out = tmp_path / "out"
+    code, stdout, stderr = evmap(capsys, "run", "--rule", "unknown_rule", "--out", str(out))
+    assert code == 2 and stdout == ""
+    assert "unknown_rule" in stderr and all(rule in stderr for rule in RULES)
+    assert "Traceback" not in stderr
+    assert not out.exists()
+
+
+def test_a_bad_config_exits_2_naming_the_file(capsys, tmp_path):
+    out = tmp_path / "out"
+    code, stdout, stderr = evmap(capsys, "run", "--config", BAD_CONFIG, "--out", str(out))
+    assert code == 2 and stdout == ""
+    assert stderr.startswith("evmap: error: ") and BAD_CONFIG in stderr
+    assert "Traceback" not in stderr
+    assert not out.exists()
+
+
+def test_the_rule_option_reaches_the_report_and_the_map(capsys, tmp_path):
+    out = tmp_path / "out"
+    code, stdout, stderr = evmap(capsys, "run", SMALL, "--rule", "yager", "--out", str(out), "--json")
+    assert code == 0, stderr
+    assert json.loads(stdout) == json.loads((out / "report.json").read_text())
+    assert json.loads(stdout)["rule"] == "yager"
+    assert json.loads((out / "map.json").read_text())["graph"]["rule"] == "yager"
