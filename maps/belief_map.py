@@ -35,9 +35,11 @@ from __future__ import annotations
 
 import gc
 import math
-from collections.abc import Callable, Iterable, Iterator, Mapping
+import operator
+import sys
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
-from itertools import chain
+from itertools import chain, repeat
 from numbers import Real
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
@@ -52,6 +54,7 @@ from evidential import RULES, Frame, MassFunction, Stack, combine, conflict
 from evidential.mass import SUM_TOLERANCE
 from maps.occupancy import OccupancyParams, evidential_grid, occupancy_from_masses, write_atomic, write_ros_map
 from maps.segments import SegmentStore
+from maps.spatial import GridIndex
 from sources.config import Config, config_from_data
 from sources.loading import InputError
 
@@ -77,19 +80,27 @@ _NODE_REQUIRED = frozenset(("id", "xy", "kind", "mass"))
 _EDGE_REQUIRED = frozenset(("id", "kind", "mass", "source", "target"))
 _MAX_TREES = 16
 
+NEAR_CELL = 2.0
+"""Side (m) of the grid cells of :meth:`BeliefMap.near` and :meth:`BeliefMap.open_space_near`."""
+
 
 @contextmanager
 def _gc_paused() -> Iterator[None]:
     """Pause the cyclic garbage collector while a big map is written or read.
 
     Both allocate hundreds of thousands of containers, none of them garbage;
-    the collector's passes over them would double the time.
+    the collector's passes over them would double the time. At the end the
+    new containers go straight to the oldest generation (``gc.freeze`` then
+    ``gc.unfreeze``), where the collector's passes over them would have moved
+    them: otherwise its first pass after the pause walks them all at once.
     """
     enabled = gc.isenabled()
     gc.disable()
     try:
         yield
     finally:
+        gc.freeze()
+        gc.unfreeze()
         if enabled:
             gc.enable()
 
@@ -174,7 +185,10 @@ class BeliefMap:
             **attrs,
         )
         self._lines: dict[str, tuple[str, str]] = {}
-        self._open_space: shapely.MultiPolygon = shapely.MultiPolygon()
+        self._spaces: list[shapely.Geometry] = []  # pieces whose union is the open space
+        self._space_grid = GridIndex(NEAR_CELL)
+        self._open_space: shapely.MultiPolygon | None = shapely.MultiPolygon()  # their union; None: not yet made
+        self._grids: tuple[GridIndex, GridIndex] | None = None  # points, lines; made on first use
         self._index: _Index | None = None
         self._config: Config | None = None
         self.segments = SegmentStore.empty(frame)
@@ -205,25 +219,69 @@ class BeliefMap:
 
     @property
     def open_space(self) -> shapely.MultiPolygon:
-        """The sonar open space, a (possibly empty) shapely MultiPolygon.
+        """The sonar open space, a (possibly empty) shapely MultiPolygon: the union of every observation's.
 
-        Set it with a Polygon, a MultiPolygon, an empty geometry or None; it is
-        stored in the graph (``open_space``) as GeoJSON-like coordinate lists.
+        Set it with a Polygon, a MultiPolygon, an empty geometry or None (that
+        replaces it), or add to it with :meth:`add_open_space`; it is stored in
+        the graph (``open_space``) as GeoJSON-like coordinate lists.
         """
+        if self._open_space is None:
+            union = shapely.union_all(self._spaces)
+            self._open_space = union if isinstance(union, shapely.MultiPolygon) else _as_multipolygon(union)
+            self._graph.graph["open_space"] = _geojson(self._open_space)
         return self._open_space
 
     @open_space.setter
     def open_space(self, geometry: shapely.Geometry | None) -> None:
-        if geometry is None or geometry.is_empty:
-            geometry = shapely.MultiPolygon()
-        elif isinstance(geometry, shapely.Polygon):
-            geometry = shapely.MultiPolygon([geometry])
-        if not isinstance(geometry, shapely.MultiPolygon):
-            raise ValueError(f"open_space must be a Polygon or MultiPolygon, got a {geometry.geom_type}")
-        if not geometry.is_valid:
-            raise ValueError(f"open_space is not a valid geometry: {shapely.is_valid_reason(geometry)}")
+        geometry = _as_multipolygon(geometry)
+        self._spaces = []
+        self._space_grid = GridIndex(NEAR_CELL)
+        self.add_open_space(geometry)
         self._graph.graph["open_space"] = _geojson(geometry)
         self._open_space = geometry
+
+    def add_open_space(self, geometry: shapely.Geometry) -> None:
+        """Unite a (Multi)Polygon, one observation's open space say, with the map's open space.
+
+        Cheap however large the map: the union is made when :attr:`open_space` is read.
+        """
+        geometry = _as_multipolygon(geometry)
+        for piece in geometry.geoms:
+            self._space_grid.insert(str(len(self._spaces)), piece.bounds)
+            self._spaces.append(piece)
+        self._open_space = None
+        self._changed()
+
+    def open_space_near(self, bounds: tuple[float, float, float, float]) -> shapely.Geometry:
+        """The open space within the box ``bounds`` (xmin, ymin, xmax, ymax), and maybe some beyond it.
+
+        Equal to :attr:`open_space` inside the box; it costs what the box holds, not the whole map.
+        """
+        pieces = [self._spaces[int(k)] for k in self._space_grid.query(bounds)]
+        return shapely.union_all(pieces) if pieces else shapely.MultiPolygon()
+
+    def near(self, bounds: tuple[float, float, float, float], what: str = "all") -> set[str]:
+        """Ids of the points (``what="points"``), lines (``"lines"``) or both whose boxes may meet ``bounds``.
+
+        A superset, from a grid of :data:`NEAR_CELL` cells kept up to date as the
+        map changes: the cost grows with what is near, not with the map.
+
+        >>> from evidential import MassFunction
+        >>> bm = BeliefMap(["real", "noise"])
+        >>> m = MassFunction(bm.frame, {"real": 1.0})
+        >>> bm.add_point("A", (0, 0), "corner", m); bm.add_point("B", (4, 0), "endpoint", m)
+        >>> bm.add_line("L1", "A", "B", m)
+        >>> sorted(bm.near((3.5, -0.5, 4.5, 0.5))), sorted(bm.near((3.5, -0.5, 4.5, 0.5), "lines"))
+        (['B', 'L1'], ['L1'])
+        """
+        points, lines = self._near_grids()
+        if what == "points":
+            return points.query(bounds)
+        if what == "lines":
+            return lines.query(bounds)
+        if what == "all":
+            return points.query(bounds) | lines.query(bounds)
+        raise ValueError(f"what must be 'points', 'lines' or 'all', got {what!r}")
 
     # ----------------------------------------------------------------- building
 
@@ -246,6 +304,9 @@ class BeliefMap:
             history=_history(history, id),
             **attrs,
         )
+        if self._grids is not None:
+            x, y = self._graph.nodes[id]["xy"]
+            self._grids[0].insert(id, (x, y, x, y))
         self._changed()
 
     def add_line(
@@ -269,6 +330,8 @@ class BeliefMap:
         mass = self._check_mass(mass, id)
         self._graph.add_edge(u, v, id=id, kind=LINE_KIND, mass=mass, history=_history(history, id), **attrs)
         self._lines[id] = (u, v)
+        if self._grids is not None:
+            self._grids[1].insert(id, self._line_bounds(id))
         self._changed()
 
     def remove_line(self, id: str) -> None:
@@ -276,6 +339,8 @@ class BeliefMap:
         if id not in self._lines:
             raise KeyError(f"{id!r} is not a line of the map")
         self._graph.remove_edge(*self._lines.pop(id))
+        if self._grids is not None:
+            self._grids[1].remove(id)
         self._changed()
 
     def remove_point(self, id: str) -> None:
@@ -286,6 +351,8 @@ class BeliefMap:
         if ending:
             raise ValueError(f"point {id!r} still ends lines {ending}; remove them first")
         self._graph.remove_node(id)
+        if self._grids is not None:
+            self._grids[0].remove(id)
         self._changed()
 
     def set_attrs(self, id: str, /, **attrs: Any) -> None:
@@ -308,6 +375,11 @@ class BeliefMap:
         if "history" in attrs:
             checked["history"] = _history(attrs["history"], id)
         data.update(checked)
+        if "xy" in checked and self._grids is not None:  # the point and its lines moved
+            x, y = checked["xy"]
+            self._grids[0].insert(id, (x, y, x, y))
+            for _, _, line in self._graph.edges(id, data=True):
+                self._grids[1].insert(line["id"], self._line_bounds(line["id"]))
         self._changed()
 
     def fold(self, id: str, mass: MassFunction, record: Mapping[str, Any]) -> MassFunction:
@@ -444,11 +516,11 @@ class BeliefMap:
         p = np.concatenate([ix.p, xy])
         q = np.concatenate([ix.q, xy])
         belief = np.concatenate([ix.line_bel, ix.point_bel[solid]])
-        everything = np.concatenate([ix.xy, shapely.get_coordinates(self._open_space)])
+        everything = np.concatenate([ix.xy, shapely.get_coordinates(self.open_space)])
         if not len(everything):
             raise ValueError("the map is empty (no points, no open space): an occupancy grid has no extent")
         bounds = (*everything.min(axis=0), *everything.max(axis=0))
-        return evidential_grid(self._open_space, p, q, belief, bounds, resolution, self.rule, params)
+        return evidential_grid(self.open_space, p, q, belief, bounds, resolution, self.rule, params)
 
     def occupancy_grid(self, resolution: float = 0.05, params: OccupancyParams | None = None) -> NDArray[np.int8]:
         """The ROS occupancy grid (``int8``: -1 unknown, 0..100 = 100 BetP(occupied); row 0 = lowest y).
@@ -475,24 +547,22 @@ class BeliefMap:
         """The map as ``networkx.node_link_data(G, edges="edges")``, masses as ``{FOCAL: float}``.
 
         Each edge's ``source`` -> ``target`` is the line's ``u`` -> ``v``; nodes
-        and edges in insertion order.
+        and edges in insertion order. The records are new dicts; their values
+        (histories, extras) are the map's own.
         """
-        return self._node_link(_MassCodec(self._frame).encode)
-
-    def _node_link(self, encode: Callable[[MassFunction], dict[str, float]] | None) -> dict[str, Any]:
-        """:meth:`to_data`; with ``encode`` None, the nodes are the graph's own attribute dicts, masses unencoded."""
-        g, adj = self._graph, self._graph.adj
-        if encode is None:
-            nodes = list(g.nodes.values())
-            edges = [{**adj[u][v], "source": u, "target": v} for u, v in self._lines.values()]
-        else:
-            nodes = [{**d, "mass": encode(d["mass"])} for d in g.nodes.values()]
+        with _gc_paused():
+            g = self._graph
+            points = [d for _, d in g.nodes(data=True)]
+            adj = dict(g.adjacency())
+            lines = [adj[u][v] for u, v in self._lines.values()]
+            encode = _MassCodec(self._frame).encode
+            nodes = [{**d, "mass": m} for d, m in zip(points, encode([d["mass"] for d in points]), strict=True)]
             edges = [
-                {**adj[u][v], "mass": encode(adj[u][v]["mass"]), "source": u, "target": v}
-                for u, v in self._lines.values()
+                {**d, "mass": m, "source": u, "target": v}
+                for d, m, (u, v) in zip(lines, encode([d["mass"] for d in lines]), self._lines.values(), strict=True)
             ]
-        graph = {**g.graph, "segments": self.segments.to_json()}
-        return {"directed": False, "multigraph": False, "graph": graph, "nodes": nodes, "edges": edges}
+            graph = {**g.graph, "open_space": _geojson(self.open_space), "segments": self.segments.to_json()}
+            return {"directed": False, "multigraph": False, "graph": graph, "nodes": nodes, "edges": edges}
 
     @classmethod
     def from_data(cls, data: Any, name: str = "map") -> BeliefMap:
@@ -508,10 +578,9 @@ class BeliefMap:
         come back as lists, except ``xy``).
         """
         _check_json({k: v for k, v in self._graph.graph.items() if k not in _GRAPH_KEYS}, "graph")
-        codec = _MassCodec(self._frame)
         try:
             with _gc_paused():
-                text = orjson.dumps(self._node_link(None), default=codec.default)
+                text = orjson.dumps(self.to_data())  # the records are freed before the file is written
         except TypeError as exc:  # an attribute changed in the graph directly, bypassing the checks
             raise ValueError(f"cannot save the map to {path}: {exc}") from None
         write_atomic(path, text)
@@ -536,6 +605,7 @@ class BeliefMap:
                 data = orjson.loads(text)
             except orjson.JSONDecodeError as exc:
                 raise MapFileError(f"{path}: not valid JSON (truncated or corrupt?): {exc}") from None
+            del text  # free the file's bytes before the map is built: a big map needs the memory
             return _MapReader(str(path), owned=True).read(data)
 
     # ----------------------------------------------------------------- internals
@@ -560,6 +630,23 @@ class BeliefMap:
         if id in self._graph:
             return self._graph.nodes[id]
         raise KeyError(f"{id!r} is neither a point nor a line of the map")
+
+    def _near_grids(self) -> tuple[GridIndex, GridIndex]:
+        """The grids of points and lines, made from the whole map on first use, then kept up to date."""
+        if self._grids is None:
+            points, lines = GridIndex(NEAR_CELL), GridIndex(NEAR_CELL)
+            for n, d in self._graph.nodes(data=True):
+                x, y = d["xy"]
+                points.insert(n, (x, y, x, y))
+            for id in self._lines:
+                lines.insert(id, self._line_bounds(id))
+            self._grids = (points, lines)
+        return self._grids
+
+    def _line_bounds(self, id: str) -> tuple[float, float, float, float]:
+        u, v = self._lines[id]
+        (x0, y0), (x1, y1) = self._graph.nodes[u]["xy"], self._graph.nodes[v]["xy"]
+        return min(x0, x1), min(y0, y1), max(x0, x1), max(y0, y1)
 
     def _changed(self) -> None:
         self._index = None
@@ -647,64 +734,97 @@ def _belief_plausibility(masses: list[MassFunction], a: int) -> tuple[NDArray[np
 
 
 class _MassCodec:
-    """Mass functions to ``{FOCAL: float}`` and back, many at a time (a map file holds thousands)."""
+    """Mass functions to ``{FOCAL: float}`` and back, in bulk (a map file holds hundreds of thousands).
+
+    :func:`_stacks` and :func:`_mass_functions` are the two places that know
+    how a :class:`~evidential.MassFunction` holds its arrays.
+    """
 
     def __init__(self, frame: Frame) -> None:
         self.frame = frame
-        self.labels: dict[int, str] = {}
 
-    def encode(self, mass: MassFunction) -> dict[str, float]:
-        labels, out = self.labels, {}
-        for mask, value in zip(mass.masks.tolist(), mass.masses.tolist(), strict=True):
-            label = labels.get(mask)
-            if label is None:
-                label = labels[mask] = self.frame.label(mask)
-            out[label] = value
+    def encode(self, masses: list[MassFunction]) -> list[dict[str, float]]:
+        """``{FOCAL: float}`` of each mass function, as :meth:`MassFunction.to_dict` writes it."""
+        labels_of: dict[bytes, list[str]] = {}
+        out = []
+        for masks, values in _stacks(masses):
+            labels = labels_of.get(key := masks.tobytes())
+            if labels is None:
+                labels = labels_of[key] = [self.frame.label(k) for k in masks.tolist()]
+            out.append(dict(zip(labels, values.ravel().tolist())))  # (zip's strict=True would cost a third)
         return out
-
-    def default(self, value: Any) -> dict[str, float]:
-        """orjson's hook for the types it does not know: a MassFunction is written as ``{FOCAL: float}``."""
-        if isinstance(value, MassFunction):
-            return self.encode(value)
-        raise TypeError(f"a {type(value).__name__} is not JSON")
 
     def decode(self, dicts: list[dict[Any, Any]]) -> list[MassFunction]:
         """The mass functions of the dicts; a bad one raises ``_BadMass(index, engine's message)``.
 
-        Dicts with the same focal sets are checked and stacked as one array; a
-        dict that fails the array check goes through the engine's own
-        constructor, which either accepts it or says what is wrong.
+        Dicts with the same focal sets are checked as one array, whose good rows
+        become mass functions; a dict that fails the array check (a zero mass,
+        say) goes through the engine's own constructor, which either accepts it
+        or says what is wrong.
         """
-        groups: dict[tuple[Any, ...], list[int]] = {}
-        for i, d in enumerate(dicts):
-            groups.setdefault(tuple(d), []).append(i)
-        out: list[MassFunction | None] = [None] * len(dicts)
-        for keys, rows in groups.items():
-            fast = self._stacked(keys, [dicts[i] for i in rows])
-            for i, m in zip(rows, fast, strict=True):
+        if not dicts:
+            return []
+        keys = list(map(tuple, dicts))
+        code = {k: c for c, k in enumerate(dict.fromkeys(keys))}
+        group = np.fromiter(map(code.__getitem__, keys), dtype=np.intp, count=len(keys))
+        members = np.split(np.argsort(group, kind="stable"), np.cumsum(np.bincount(group, minlength=len(code)))[:-1])
+        out: list[Any] = [None] * len(dicts)
+        for focal, rows in zip(code, members, strict=True):
+            rows = rows.tolist()
+            for i, m in zip(rows, self._group(focal, list(map(dicts.__getitem__, rows))), strict=True):
                 if m is None:
                     try:
                         m = MassFunction.from_dict(self.frame, dicts[i], open_world=True)
-                    except (ValueError, TypeError) as exc:
+                    except (ValueError, TypeError, OverflowError) as exc:
                         raise _BadMass(i, str(exc)) from None
                 out[i] = m
-        return out  # type: ignore[return-value]
+        return out
 
-    def _stacked(self, keys: tuple[Any, ...], dicts: list[dict[Any, Any]]) -> list[MassFunction | None]:
+    def _group(self, keys: tuple[Any, ...], dicts: list[dict[Any, Any]]) -> list[MassFunction | None]:
+        """The mass functions of dicts that all have the focal sets ``keys``; None where the array check fails."""
         try:
             masks = np.array([self.frame.mask(k) for k in keys], dtype=np.int64)
-            rows = [list(d.values()) for d in dicts]
-            numbers = set(map(type, chain.from_iterable(rows))) <= {float, int}  # not bool, not str
-            values = np.array(rows, dtype=np.float64).reshape(len(rows), len(keys)) if numbers else None
-        except (ValueError, TypeError, OverflowError):
-            values = None
-        if values is None or len(set(masks.tolist())) != len(keys):
+        except (ValueError, TypeError):
+            return [None] * len(dicts)
+        flat = list(chain.from_iterable(map(dict.values, dicts)))
+        if len(np.unique(masks)) != len(keys) or not set(map(type, flat)) <= {float, int}:  # not bool, not str
+            return [None] * len(dicts)
+        try:
+            values = np.array(flat, dtype=np.float64).reshape(len(dicts), len(keys))
+        except OverflowError:
             return [None] * len(dicts)
         order = np.argsort(masks)
-        stack = Stack(masks[order], np.ascontiguousarray(values[:, order].T))
-        good = np.isfinite(values).all(axis=1) & (values >= 0).all(axis=1)
+        values = values[:, order]
+        good = (values > 0).all(axis=1) & np.isfinite(values).all(axis=1)  # the engine drops zero masses
         good &= np.abs(values.sum(axis=1) - 1.0) <= SUM_TOLERANCE
-        return [MassFunction.from_stack(self.frame, stack, j) if ok else None for j, ok in enumerate(good.tolist())]
+        return _mass_functions(self.frame, masks[order], values, good)
+
+
+def _stacks(masses: list[MassFunction]) -> list[Stack]:
+    """The stack (masks, (K, 1) masses) that each mass function holds, as the engine's own ``combine`` reads it."""
+    return [m._stack for m in masses]
+
+
+def _mass_functions(
+    frame: Frame, masks: NDArray[np.int64], values: NDArray[np.float64], good: NDArray[np.bool_]
+) -> list[MassFunction | None]:
+    """A mass function over the focal sets ``masks`` (K,, increasing) for each good row of ``values`` (N, K).
+
+    What :meth:`MassFunction.from_stack` makes of one column, without its
+    per-column check for zero masses, which the caller did for all the rows:
+    the good rows have only positive masses summing to 1. None for the others.
+    """
+    stacks = map(Stack, repeat(masks), values.reshape(*values.shape, 1))  # row j as the (K, 1) masses of a Stack
+    new = MassFunction.__new__
+    out: list[MassFunction | None] = []
+    for ok, stack in zip(good.tolist(), stacks, strict=True):
+        m = None
+        if ok:
+            m = new(MassFunction)
+            m.frame = frame
+            m._stack = stack
+        out.append(m)
+    return out
 
 
 class _BadMass(Exception):
@@ -715,7 +835,12 @@ class _BadMass(Exception):
 
 
 class _MapReader:
-    """Checks the node-link layout of a map file and builds the map; errors name the file and place."""
+    """Checks the node-link layout of a map file and builds the map; errors name the file and the place.
+
+    Each part is first checked in bulk, quickly; only where that check fails
+    are the records gone through one by one, to find the first problem and
+    name its place.
+    """
 
     def __init__(self, name: str, owned: bool = False) -> None:
         self.name = name
@@ -734,44 +859,27 @@ class _MapReader:
             raise self.fail("", "a map is an undirected simple graph ('directed' and 'multigraph' false)")
         bm = self.empty_map(data["graph"])
         codec = _MassCodec(bm.frame)
-        nodes = [self.record(d, "nodes", i, _NODE_REQUIRED) for i, d in enumerate(data["nodes"])]
-        ids: set[str] = set()
-        for i, (record, mass) in enumerate(zip(nodes, self.masses(codec, nodes, "nodes"), strict=True)):
-            id, xy, kind = record["id"], record["xy"], record["kind"]
-            if id in ids:
-                raise self.fail(f"nodes[{i}].id", f"id {id!r} is used twice")
-            ids.add(id)
-            if not (type(xy) in (list, tuple) and len(xy) == 2 and _finite(xy[0]) and _finite(xy[1])):
-                raise self.fail(f"nodes[{i}].xy", f"must be [x, y] with two finite numbers, got {_shown(xy)}")
-            if kind not in POINT_KINDS:
-                raise self.fail(f"nodes[{i}].kind", f"must be one of {list(POINT_KINDS)}, got {_shown(kind)}")
-            record["xy"] = (float(xy[0]), float(xy[1]))
-            record["mass"] = mass
+        nodes = self.records(data["nodes"], "nodes", _NODE_REQUIRED, frozenset())
+        xy = self.points(nodes)
+        kinds = [d["kind"] for d in nodes]
+        if not all(map(POINT_KINDS.__contains__, kinds)):
+            i = next(i for i, kind in enumerate(kinds) if kind not in POINT_KINDS)
+            raise self.fail(f"nodes[{i}].kind", f"must be one of {list(POINT_KINDS)}, got {_shown(kinds[i])}")
+        masses = self.masses(codec, nodes, "nodes")
+        ids = [d["id"] for d in nodes]
         points = frozenset(ids)
-        edges = [self.record(d, "edges", i, _EDGE_REQUIRED) for i, d in enumerate(data["edges"])]
-        ends: set[tuple[str, str]] = set()
-        for i, (record, mass) in enumerate(zip(edges, self.masses(codec, edges, "edges"), strict=True)):
-            id, u, v = record["id"], record.pop("source"), record.pop("target")
-            if id in ids:
-                raise self.fail(f"edges[{i}].id", f"id {id!r} is used twice")
-            ids.add(id)
-            if record["kind"] != LINE_KIND:
-                raise self.fail(f"edges[{i}].kind", f"must be {LINE_KIND!r}, got {_shown(record['kind'])}")
-            for key, end in (("source", u), ("target", v)):
-                if type(end) is not str or end not in points:
-                    raise self.fail(f"edges[{i}].{key}", f"must be the id of a point of the map, got {_shown(end)}")
-            if u == v or (u, v) in ends or (v, u) in ends:
-                raise self.fail(f"edges[{i}]", f"line {id!r} from {u!r} to {v!r}: a loop, or a second line there")
-            ends.add((u, v))
-            record["mass"] = mass
-            bm._lines[id] = (u, v)
+        edges = self.records(data["edges"], "edges", _EDGE_REQUIRED, points)
+        ends = self.ends(edges, points)
+        for d, mass in zip(edges, self.masses(codec, edges, "edges"), strict=True):
+            d["mass"] = mass
         g = bm.graph
-        g.add_nodes_from(record["id"] for record in nodes)  # new, distinct: their attribute dicts come in this order
-        for attrs, record in zip(g.nodes.values(), nodes, strict=True):
-            attrs.update(record)
-        add_edge = g.add_edge
-        for (u, v), record in zip(bm._lines.values(), edges, strict=True):
-            add_edge(u, v, **record)
+        g.add_nodes_from(ids)
+        for (_, attrs), d, point, mass in zip(g.nodes(data=True), nodes, xy, masses, strict=True):  # in this order
+            attrs.update(d)
+            attrs["xy"] = point
+            attrs["mass"] = mass
+        g.add_edges_from([(u, v, d) for (u, v), d in zip(ends, edges, strict=True)])
+        bm._lines = dict(zip([d["id"] for d in edges], ends, strict=True))
         return bm
 
     def empty_map(self, attrs: dict[str, Any]) -> BeliefMap:
@@ -802,29 +910,107 @@ class _MapReader:
                 raise self.fail("graph.open_space", str(exc)) from None
         return bm
 
-    def record(self, d: Any, key: str, i: int, required: frozenset[str]) -> dict[str, Any]:
-        """A shallow copy of one node or edge record (``data[key][i]``) with its common keys checked."""
-        if type(d) is not dict:
-            raise self.fail(f"{key}[{i}]", f"must be an object, got {_shown(d)}")
-        if not d.keys() >= required:
-            raise self.fail(f"{key}[{i}]", f"required keys {sorted(required - d.keys())} are missing")
-        if not (type(d["id"]) is str and d["id"]):
-            raise self.fail(f"{key}[{i}].id", f"must be a non-empty string, got {_shown(d['id'])}")
-        if type(d["mass"]) is not dict:
-            raise self.fail(f"{key}[{i}].mass", f"must be an object {{FOCAL: mass}}, got {_shown(d['mass'])}")
-        history = d.get("history", [])
-        if not (type(history) is list and all(type(r) is dict for r in history)):
-            raise self.fail(f"{key}[{i}].history", "must be a list of objects")
-        if self.owned:
-            d["history"] = history
-            return d
-        return {**d, "history": [dict(r) for r in history]}  # fold appends to the history: not to the caller's
+    def records(
+        self, raw: list[Any], key: str, required: frozenset[str], taken: frozenset[str]
+    ) -> list[dict[str, Any]]:
+        """The records ``data[key]`` with their ``id`` (new, not in ``taken``), ``mass`` and ``history`` checked.
+
+        Copies, unless the records are ours (``owned``); ``history`` defaults to ``[]``.
+        """
+        if not _records_look_right(raw, required, taken):
+            self.check_records(raw, key, required, taken)
+        if not self.owned:  # fold appends to a history: not to the caller's
+            return [{**d, "history": [dict(r) for r in d.get("history", ())]} for d in raw]
+        for d in raw:
+            if "history" not in d:
+                d["history"] = []
+        return raw
+
+    def check_records(self, raw: list[Any], key: str, required: frozenset[str], taken: frozenset[str]) -> None:
+        """What :meth:`records` checks, record by record: raise at the first problem."""
+        ids = set(taken)
+        for i, d in enumerate(raw):
+            if type(d) is not dict:
+                raise self.fail(f"{key}[{i}]", f"must be an object, got {_shown(d)}")
+            if not d.keys() >= required:
+                raise self.fail(f"{key}[{i}]", f"required keys {sorted(required - d.keys())} are missing")
+            id = d["id"]
+            if not (type(id) is str and id):
+                raise self.fail(f"{key}[{i}].id", f"must be a non-empty string, got {_shown(id)}")
+            if id in ids:
+                raise self.fail(f"{key}[{i}].id", f"id {id!r} is used twice")
+            ids.add(id)
+            if type(d["mass"]) is not dict:
+                raise self.fail(f"{key}[{i}].mass", f"must be an object {{FOCAL: mass}}, got {_shown(d['mass'])}")
+            history = d.get("history", [])
+            if not (type(history) is list and all(type(r) is dict for r in history)):
+                raise self.fail(f"{key}[{i}].history", "must be a list of objects")
+
+    def points(self, nodes: list[dict[str, Any]]) -> list[tuple[float, float]]:
+        """The nodes' ``xy`` as tuples of floats; one that is not ``[x, y]`` of finite numbers fails at its place."""
+        xys = [d["xy"] for d in nodes]
+        if set(map(type, xys)) <= {list, tuple} and set(map(len, xys)) <= {2}:
+            flat = list(chain.from_iterable(xys))
+            if set(map(type, flat)) <= {float, int} and all(map(_finite, flat)):
+                return list(zip(map(float, flat[0::2]), map(float, flat[1::2]), strict=True))
+        for i, xy in enumerate(xys):
+            if not (type(xy) in (list, tuple) and len(xy) == 2 and _finite(xy[0]) and _finite(xy[1])):
+                raise self.fail(f"nodes[{i}].xy", f"must be [x, y] with two finite numbers, got {_shown(xy)}")
+        return [(float(x), float(y)) for x, y in xys]
+
+    def ends(self, edges: list[dict[str, Any]], points: frozenset[str]) -> list[tuple[str, str]]:
+        """The ends ``(source, target)`` of each line, taken out of its record, checked, with the line's kind."""
+        us = list(map(dict.pop, edges, repeat("source")))
+        vs = list(map(dict.pop, edges, repeat("target")))
+        if not (
+            [d["kind"] for d in edges].count(LINE_KIND) == len(edges)
+            and set(map(type, chain(us, vs))) <= {str}
+            and points.issuperset(us)
+            and points.issuperset(vs)
+            and not any(map(operator.eq, us, vs))
+            and len(set(map(frozenset, zip(us, vs, strict=True)))) == len(edges)  # one line per pair of points
+        ):
+            seen: set[tuple[str, str]] = set()
+            for i, (d, u, v) in enumerate(zip(edges, us, vs, strict=True)):
+                if d["kind"] != LINE_KIND:
+                    raise self.fail(f"edges[{i}].kind", f"must be {LINE_KIND!r}, got {_shown(d['kind'])}")
+                for end, name in ((u, "source"), (v, "target")):
+                    if not (type(end) is str and end in points):
+                        problem = f"must be the id of a point of the map, got {_shown(end)}"
+                        raise self.fail(f"edges[{i}].{name}", problem)
+                if u == v or (u, v) in seen or (v, u) in seen:
+                    problem = f"line {d['id']!r} from {u!r} to {v!r}: a loop, or a second line there"
+                    raise self.fail(f"edges[{i}]", problem)
+                seen.add((u, v))
+        return list(zip(us, vs, strict=True))
 
     def masses(self, codec: _MassCodec, records: list[dict[str, Any]], key: str) -> list[MassFunction]:
         try:
             return codec.decode([r["mass"] for r in records])
         except _BadMass as exc:
             raise self.fail(f"{key}[{exc.index}].mass", exc.problem) from None
+
+
+_NO_HISTORY: list[Any] = []
+"""What :func:`_records_look_right` reads as the history of a record without one (never stored)."""
+
+
+def _records_look_right(raw: list[Any], required: frozenset[str], taken: frozenset[str]) -> bool:
+    """True if :meth:`_MapReader.check_records` would find no problem; a quick check in bulk (False: look closer)."""
+    if not (set(map(type, raw)) <= {dict} and all(map(operator.le, repeat(required), map(dict.keys, raw)))):
+        return False
+    ids = [d["id"] for d in raw]
+    if not set(map(type, ids)) <= {str} or "" in ids:
+        return False
+    unique = set(ids)
+    histories = [d.get("history", _NO_HISTORY) for d in raw]
+    return (
+        len(unique) == len(ids)
+        and unique.isdisjoint(taken)
+        and set(map(type, [d["mass"] for d in raw])) <= {dict}
+        and set(map(type, histories)) <= {list}
+        and set(map(type, chain.from_iterable(histories))) <= {dict}
+    )
 
 
 def _belief_level(min_belief: float) -> float:
@@ -889,7 +1075,10 @@ def _json_problem(value: Any, path: str) -> str | None:
 
 
 def _finite(value: Any) -> bool:
-    return (type(value) is float or type(value) is int) and math.isfinite(value)
+    """A float that is finite, or an int that a float can hold (not a bool)."""
+    if type(value) is float:
+        return math.isfinite(value)
+    return type(value) is int and abs(value) <= sys.float_info.max
 
 
 def _shown(value: Any) -> str:
@@ -897,12 +1086,26 @@ def _shown(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+def _as_multipolygon(geometry: shapely.Geometry | None) -> shapely.MultiPolygon:
+    """A valid Polygon, MultiPolygon, empty geometry or None as a MultiPolygon; a ValueError otherwise."""
+    if geometry is None or geometry.is_empty:
+        return shapely.MultiPolygon()
+    if isinstance(geometry, shapely.Polygon):
+        geometry = shapely.MultiPolygon([geometry])
+    if not isinstance(geometry, shapely.MultiPolygon):
+        raise ValueError(f"open_space must be a Polygon or MultiPolygon, got a {geometry.geom_type}")
+    if not geometry.is_valid:
+        raise ValueError(f"open_space is not a valid geometry: {shapely.is_valid_reason(geometry)}")
+    return geometry
+
+
 def _geojson(geometry: shapely.MultiPolygon) -> dict[str, Any]:
     """GeoJSON-like dict of a MultiPolygon, coordinates as nested lists (exact floats)."""
     if geometry.is_empty:
         return {"type": "MultiPolygon", "coordinates": []}
     _, coords, (ring_end, polygon_end, _) = shapely.to_ragged_array([geometry])
-    rings = [ring.tolist() for ring in np.split(coords, ring_end[1:-1])]
+    points = coords.tolist()
+    rings = [points[a:b] for a, b in zip(ring_end[:-1].tolist(), ring_end[1:].tolist(), strict=True)]
     polygons = [rings[a:b] for a, b in zip(polygon_end[:-1].tolist(), polygon_end[1:].tolist(), strict=True)]
     return {"type": "MultiPolygon", "coordinates": polygons}
 

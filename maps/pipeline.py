@@ -113,7 +113,7 @@ def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOut
     # 1. open space of this pose, united with the map's
     primitive = extract_rcds(obs.sonar, config.rcd, primitive=True)
     space = open_space(obs.sonar, primitive, config.open_space)
-    bm.open_space = shapely.union(bm.open_space, space) if not bm.open_space.is_empty else space
+    bm.add_open_space(space)
 
     # 2. noise elimination of the new segments and of the stored ones the new open space reaches
     new = store.append(obs.lsl.p, obs.lsl.q, np.full(len(obs.lsl), obs.pose_index), obs.lsl.truth, obs.features)
@@ -122,14 +122,16 @@ def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOut
     if len(new):
         ends = np.concatenate([store.p[new], store.q[new]])
         bounds = np.r_[np.minimum(bounds[:2], ends.min(axis=0)), np.maximum(bounds[2:], ends.max(axis=0))]
-    touched = store.near(tuple(bounds + np.array([-margin, -margin, margin, margin])))
-    _judge(bm, touched, config)
+    region = tuple(bounds + np.array([-margin, -margin, margin, margin]))
+    touched = store.near(region)
+    _judge(bm, touched, region, config)
 
     # 3.-4. merge and find corners near the change
     touched_lines = _rebuild(bm, touched, config, pose[:2])
 
     # 5.-7. simulated sonar, matching, reinforcement, unidentified objects
-    surfaces = map_surfaces(bm)
+    reach = obs.sonar.params.max_range
+    surfaces = map_surfaces(bm, (pose[0] - reach, pose[1] - reach, pose[0] + reach, pose[1] + reach))
     predicted_scan = simulate_scan(surfaces, pose, obs.sonar.params)
     actual = extract_rcds(obs.sonar, config.rcd)
     predicted = extract_rcds(predicted_scan, config.rcd)
@@ -146,16 +148,19 @@ def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOut
     )
 
 
-def map_surfaces(bm: BeliefMap) -> Surfaces:
+def map_surfaces(bm: BeliefMap, bounds: tuple[float, float, float, float] | None = None) -> Surfaces:
     """The map's lines and their corner and end points as surfaces for the sonar model.
 
     Every line is a specular, LSL-opaque surface; points are named by their ids,
-    so a simulated reading names the map object that made it.
+    so a simulated reading names the map object that made it. With ``bounds``
+    (xmin, ymin, xmax, ymax), only the lines near that box.
     """
     g = bm.graph
-    ids = [n for n, d in g.nodes(data=True) if d["kind"] in _SURFACE_KINDS]
+    lines = sorted(bm.near(bounds, "lines")) if bounds is not None else [d["id"] for _, _, d in g.edges(data=True)]
+    line_ends = [_line_ends(bm, lid) for lid in lines]
+    ids = sorted({n for ends in line_ends for n in ends})
     index = {n: i for i, n in enumerate(ids)}
-    ends = [(index[u], index[v], d["id"]) for u, v, d in g.edges(data=True)]
+    ends = [(index[u], index[v], lid) for (u, v), lid in zip(line_ends, lines, strict=True)]
     n = len(ends)
     return Surfaces(
         vertices=np.array([g.nodes[i]["xy"] for i in ids], dtype=float).reshape(-1, 2),
@@ -170,11 +175,11 @@ def map_surfaces(bm: BeliefMap) -> Surfaces:
 # --------------------------------------------------------------------- stages
 
 
-def _judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
-    """Noise elimination of the stored segments ``ids`` against the map's open space."""
+def _judge(bm: BeliefMap, ids: NDArray[np.intp], region: tuple[float, float, float, float], config: Config) -> None:
+    """Noise elimination of the stored segments ``ids`` (all within ``region``) against the map's open space."""
     store: SegmentStore = bm.segments
     features = {name: column[ids] for name, column in store.features.items()}
-    ev = noise_evidence(store.p[ids], store.q[ids], bm.open_space, config, features)
+    ev = noise_evidence(store.p[ids], store.q[ids], bm.open_space_near(region), config, features)
     store.relation[ids] = ev.relation
     store.mass[ids] = ev.fused
     store.conflict[ids] = ev.conflict
@@ -189,32 +194,30 @@ def _rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint
     store: SegmentStore = bm.segments
     g = bm.graph
     dissolved = sorted(set(store.line[touched].tolist()) - {""})
-    pool = np.union1d(touched, np.flatnonzero(np.isin(store.line, dissolved)))
+    old_ends = {lid: _line_ends(bm, lid) for lid in dissolved}
+    members = [np.asarray(g.edges[old_ends[lid]]["members"], dtype=np.intp) for lid in dissolved]
+    pool = np.union1d(touched, np.concatenate([np.zeros(0, dtype=np.intp), *members]))
     pool = pool[~store.eliminated[pool]]
     merged = merge_segments(store.p[pool], store.q[pool], config.merge)
 
     # lines whose ends may change: the dissolved ones, and those meeting them or the new lines
-    old_ends = {lid: _line_ends(bm, lid) for lid in dissolved}
     affected = {n for u, v in old_ends.values() for n in (u, v)}
-    points = [(n, d["xy"]) for n, d in g.nodes(data=True) if d["kind"] in _SURFACE_KINDS]
-    if points and len(merged.p):
-        xy = np.array([p for _, p in points])
+    if len(merged.p):
         ends = np.concatenate([merged.p, merged.q])
         reach = 2 * config.corners.distance + 1e-9
-        near = np.zeros(len(xy), dtype=bool)
         lo, hi = ends.min(axis=0) - reach, ends.max(axis=0) + reach
-        box = np.flatnonzero(np.all((xy >= lo) & (xy <= hi), axis=1))
-        if len(box):
-            d = np.hypot(*(xy[box, None, :] - ends[None, :, :]).transpose(2, 0, 1)).min(axis=1)
-            near[box[d <= reach]] = True
-        affected |= {points[i][0] for i in np.flatnonzero(near)}
+        points = [n for n in bm.near((*lo, *hi), "points") if g.nodes[n]["kind"] in _SURFACE_KINDS]
+        if points:
+            xy = np.array([g.nodes[n]["xy"] for n in points])
+            d = np.hypot(*(xy[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+            affected |= {points[i] for i in np.flatnonzero(d <= reach)}
 
     old_records = {lid: g.edges[old_ends[lid]]["history"] for lid in dissolved}
     kept: list[dict[str, Any]] = []  # lines re-attached: their data, fitted ends, fixed end points
-    for _, _, d in list(g.edges(data=True)):
-        u, v = _line_ends(bm, d["id"])
-        if d["id"] in old_ends or not (u in affected or v in affected):
-            continue
+    around = sorted({d["id"] for n in affected for _, _, d in g.edges(n, data=True)} - set(old_ends))
+    for lid in around:
+        u, v = _line_ends(bm, lid)
+        d = g.edges[u, v]
         fixed = (None if u in affected else u, None if v in affected else v)
         kept.append({"data": dict(d), "fit": np.array(d["fit"], dtype=float), "fixed": fixed})
     for entry in kept:
@@ -228,9 +231,11 @@ def _rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint
     # the new lines: fitted ends, base mass from merged length and relation (other features
     # from the longest member), sonar records carried over
     pool_length = np.hypot(*(store.q[pool] - store.p[pool]).T)
+    pool_ends = np.concatenate([store.p[pool], store.q[pool]])
     longest = np.array([pool[g][np.argmax(pool_length[g])] for g in merged.groups], dtype=np.intp)
     features = {name: column[longest] for name, column in store.features.items()}
-    base = noise_evidence(merged.p, merged.q, bm.open_space, config, features)
+    space = bm.open_space_near((*pool_ends.min(axis=0), *pool_ends.max(axis=0))) if len(pool) else shapely.Polygon()
+    base = noise_evidence(merged.p, merged.q, space, config, features)
     lines = kept
     for k, group in enumerate(merged.groups):
         members = pool[group]
@@ -375,14 +380,15 @@ def _unidentified(bm: BeliefMap, actual: Rcds, unmatched: NDArray[np.intp], obs:
     pose = obs.pose
     keep = unmatched[actual.type[unmatched] != 4]
     keep = keep[np.argsort(actual.type[keep], kind="stable")]  # the strongest evidence first
-    existing = [(n, np.asarray(d["xy"])) for n, d in g.nodes(data=True) if d["kind"] == "unidentified"]
     stage = config.stage_sources("unidentified")
     rows = [source.masses({"rcd_type": np.array([_ROMAN[t] for t in actual.type[keep]])}) for source in stage]
     done: list[str] = []
     for j, k in enumerate(keep):
         xy = pose[:2] + actual.range[k] * np.array([np.cos(actual.direction[k]), np.sin(actual.direction[k])])
-        near = [(np.hypot(*(pxy - xy)), n) for n, pxy in existing]
-        near = [c for c in near if c[0] <= config.unidentified.merge_radius]
+        radius = config.unidentified.merge_radius
+        around = [n for n in bm.near((*(xy - radius), *(xy + radius)), "points") if g.nodes[n]["kind"] == "unidentified"]
+        near = [(np.hypot(*(np.asarray(g.nodes[n]["xy"]) - xy)), n) for n in around]
+        near = [c for c in near if c[0] <= radius]
         records = [
             ({"stage": "unidentified", "pose": obs.pose_index, "sensor": "sonar", "source": source.name,
               "rcd_type": _ROMAN[int(actual.type[k])]}, _mass(bm, batch[j]))
@@ -399,7 +405,6 @@ def _unidentified(bm: BeliefMap, actual: Rcds, unmatched: NDArray[np.intp], obs:
             bm.add_point(node, xy, "unidentified", _vacuous(bm))
             for record, mass in records:
                 bm.fold(node, mass, record)
-            existing.append((node, xy))
         done.append(node)
     return done
 
