@@ -33,17 +33,23 @@ def main() -> None:
     result, wall = timed(worlds=args.worlds, seed=args.seed, progress=False)
     peer, peer_wall = timed(worlds=args.peer_worlds, seed=args.seed, scheduler="synchronous", progress=False)
 
-    print(f"{args.worlds} worlds x {rules} rules on a local Dask cluster: {wall:.1f} s wall "
-          f"({wall / 60:.2f} min; target < 10 min)")
+    print(
+        f"{args.worlds} worlds x {rules} rules on a local Dask cluster: {wall:.1f} s wall "
+        f"({wall / 60:.2f} min; target < 10 min)"
+    )
     print(f"  per world per rule: {1000 * wall / (args.worlds * rules):.1f} ms wall")
-    print(f"  single process (synchronous, {args.peer_worlds} worlds): "
-          f"{1000 * peer_wall / (args.peer_worlds * rules):.1f} ms per world per rule; "
-          f"cluster speed-up x{(peer_wall / args.peer_worlds) / (wall / args.worlds):.2f}")
+    print(
+        f"  single process (synchronous, {args.peer_worlds} worlds): "
+        f"{1000 * peer_wall / (args.peer_worlds * rules):.1f} ms per world per rule; "
+        f"cluster speed-up x{(peer_wall / args.peer_worlds) / (wall / args.worlds):.2f}"
+    )
     busy = sum(r["seconds_per_world"] for r in result.rows) + sum(
         r["seconds_simulate"] for r in result.rows if r["rule"] == DEFAULT_RULES[0]
     )
-    print(f"  sensing + fusion measured inside the tasks: {busy:.1f} s, x{busy / wall:.2f} the wall time "
-          "(world generation and Dask overhead not included)")
+    print(
+        f"  sensing + fusion measured inside the tasks: {busy:.1f} s, x{busy / wall:.2f} the wall time "
+        "(world generation and Dask overhead not included)"
+    )
     sim = statistics.median(r["seconds_simulate"] for r in result.rows if r["rule"] == DEFAULT_RULES[0])
     print(f"  median sensing per world (once, shared by the rules): {1000 * sim:.1f} ms")
     print("  median fusion per world, by rule (ms):")

@@ -69,6 +69,7 @@ def sparse_workload(name: str, n: int, k: int, rng: np.random.Generator) -> list
             d1, d2 = (torch.from_numpy(m.dense()) for m in (m1, m2))
             rows.append(("torchbelief dense", median_time(lambda: tb.dempster(d1, d2, tf))))
     if pyds is not None:
+
         def sets(masks):
             return [frozenset(i for i in range(n) if int(mask) >> i & 1) for mask in masks]
 

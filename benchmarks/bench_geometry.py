@@ -73,8 +73,11 @@ def main() -> None:
         merged = merge_segments(p, q)
         rows = [
             ("merge", len(merged.p), median_seconds(lambda: merge_segments(p, q))),
-            ("corners", len(find_corners(merged.p, merged.q).xy),
-             median_seconds(lambda: find_corners(merged.p, merged.q, viewpoint=(1.0, 1.0)))),
+            (
+                "corners",
+                len(find_corners(merged.p, merged.q).xy),
+                median_seconds(lambda: find_corners(merged.p, merged.q, viewpoint=(1.0, 1.0))),
+            ),
         ]
         for stage, count, seconds in rows:
             base.setdefault(stage, seconds)

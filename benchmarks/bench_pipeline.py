@@ -50,8 +50,10 @@ def main() -> None:
     config = load_config()
     corridor = default_scenario()
     total, stages = median_run(corridor, config)
-    print(f"default corridor, one pose: seconds.total median {total * 1e3:.1f} ms "
-          f"(simulate {stages['simulate'] * 1e3:.1f} ms, fuse {stages['fuse'] * 1e3:.1f} ms); target < 500 ms")
+    print(
+        f"default corridor, one pose: seconds.total median {total * 1e3:.1f} ms "
+        f"(simulate {stages['simulate'] * 1e3:.1f} ms, fuse {stages['fuse'] * 1e3:.1f} ms); target < 500 ms"
+    )
 
     print("\nfusion time against the number of LSL segments (phantoms added to the corridor's sunlight):")
     print(f"{'segments':>9} {'fuse ms':>9}")
@@ -64,7 +66,7 @@ def main() -> None:
         times.append(t)
         print(f"{n:>9} {t * 1e3:>9.1f}")
     slope = np.polyfit(np.log10(sizes), np.log10(times), 1)[0]
-    print(f"growth: time ~ segments^{slope:.2f} (x{10 ** slope:.1f} per tenfold more segments)")
+    print(f"growth: time ~ segments^{slope:.2f} (x{10**slope:.1f} per tenfold more segments)")
 
 
 if __name__ == "__main__":

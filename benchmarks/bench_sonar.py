@@ -33,7 +33,7 @@ def building(n: int) -> Surfaces:
     for i in range(n + 1):
         for j in range(n):
             for a, b in ((j * ROOM, j * ROOM + half), ((j + 1) * ROOM - half, (j + 1) * ROOM)):
-                for p, q in ((( a, i * ROOM), (b, i * ROOM)), ((i * ROOM, a), (i * ROOM, b))):
+                for p, q in (((a, i * ROOM), (b, i * ROOM)), ((i * ROOM, a), (i * ROOM, b))):
                     segs.append((len(pts), len(pts) + 1))
                     pts += [p, q]
     vertices, inverse = np.unique(np.round(np.array(pts), 9), axis=0, return_inverse=True)
@@ -83,8 +83,10 @@ def main() -> None:
     for segs, near, t1, t2, n2 in rows:
         print(f"{segs:>9} {near:>9} {t1:>13.2f} {t1 / rows[0][2]:>6.2f} {t2:>13.2f} {t2 / rows[0][3]:>6.2f} {n2:>19}")
     segs, _, t1, t2, _ = rows[-1]
-    print(f"targets at {segs} segments: first order {t1:.1f} ms (< 10: {'ok' if t1 < 10 else 'MISSED'}), "
-          f"with second order {t2:.1f} ms (< 50: {'ok' if t2 < 50 else 'MISSED'})")
+    print(
+        f"targets at {segs} segments: first order {t1:.1f} ms (< 10: {'ok' if t1 < 10 else 'MISSED'}), "
+        f"with second order {t2:.1f} ms (< 50: {'ok' if t2 < 50 else 'MISSED'})"
+    )
 
 
 if __name__ == "__main__":

@@ -74,10 +74,24 @@ def building_map(p: np.ndarray, q: np.ndarray, config) -> BeliefMap:
                 node[k, e] = f"XE{k}_{e}"
                 bm.add_point(node[k, e], xy, "endpoint", _mass(bm, ev.fused[k]))
             ends.append(node[k, e])
-        history = [{"stage": "noise_elimination", "poses": [0], "relation": str(ev.relation[k]),
-                    "length": float(ev.length[k]), "mass": _mass(bm, ev.fused[k]).to_dict()}]
-        bm.add_line(f"XL{k}", *ends, _mass(bm, ev.fused[k]), history=history, fit=[p[k].tolist(), q[k].tolist()],
-                    members=[k], reinforced=False)
+        history = [
+            {
+                "stage": "noise_elimination",
+                "poses": [0],
+                "relation": str(ev.relation[k]),
+                "length": float(ev.length[k]),
+                "mass": _mass(bm, ev.fused[k]).to_dict(),
+            }
+        ]
+        bm.add_line(
+            f"XL{k}",
+            *ends,
+            _mass(bm, ev.fused[k]),
+            history=history,
+            fit=[p[k].tolist(), q[k].tolist()],
+            members=[k],
+            reinforced=False,
+        )
         bm.segments.line[k] = f"XL{k}"
     return bm
 

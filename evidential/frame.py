@@ -42,9 +42,7 @@ class Frame:
             raise FrameError(f"a frame has at most {MAX_ELEMENTS} elements, got {len(names)}")
         for name in names:
             if not isinstance(name, str) or not name or "|" in name or name != name.strip():
-                raise FrameError(
-                    f"frame element {name!r} must be a non-empty string without '|' or surrounding blanks"
-                )
+                raise FrameError(f"frame element {name!r} must be a non-empty string without '|' or surrounding blanks")
         index = {name: i for i, name in enumerate(names)}
         if len(index) != len(names):
             dup = next(name for name in names if names.count(name) > 1)

@@ -250,7 +250,9 @@ class MassFunction:
         >>> MassFunction(Frame(["a", "b"]), {"b": 0.4, "a|b": 0.6}).max_belief()
         'b'
         """
-        sets = [1 << i for i in range(len(self.frame))] if candidates is None else [self.frame.mask(c) for c in candidates]
+        sets = (
+            [1 << i for i in range(len(self.frame))] if candidates is None else [self.frame.mask(c) for c in candidates]
+        )
         scores = [self.belief(s) for s in sets]
         return self.frame.label(sets[int(np.argmax(scores))])
 

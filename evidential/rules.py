@@ -39,9 +39,7 @@ from evidential.transforms import sweep
 
 RuleFunction = Callable[[Sequence[Stack], int], Stack]
 
-PROPERTIES = frozenset(
-    {"commutative", "associative", "vacuous_identity", "idempotent", "bayes_on_bayesian"}
-)
+PROPERTIES = frozenset({"commutative", "associative", "vacuous_identity", "idempotent", "bayes_on_bayesian"})
 """Properties a rule may claim. ``bayes_on_bayesian``: equal to ``bayes`` on Bayesian masses."""
 
 NEAR_TOTAL_CONFLICT = 1e-2
@@ -95,7 +93,9 @@ def register_rule(
     """
     claimed = frozenset(properties)
     if claimed - PROPERTIES:
-        raise ValueError(f"rule {name!r}: unknown properties {sorted(claimed - PROPERTIES)}; known: {sorted(PROPERTIES)}")
+        raise ValueError(
+            f"rule {name!r}: unknown properties {sorted(claimed - PROPERTIES)}; known: {sorted(PROPERTIES)}"
+        )
     if name in RULES:
         raise ValueError(f"rule {name!r} is already registered")
 

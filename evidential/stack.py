@@ -84,9 +84,7 @@ def aggregate(keys: NDArray[np.int64], weights: NDArray[np.float64], n: int) -> 
     return Stack(uniq, np.bincount(cells, weights.ravel(), minlength=uniq.size * count).reshape(-1, count))
 
 
-def pairwise(
-    a: Stack, b: Stack, op: np.ufunc
-) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+def pairwise(a: Stack, b: Stack, op: np.ufunc) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Keys ``op(A, B)`` and weights ``a(A) b(B)`` for every pair of focal sets."""
     keys = op.outer(a.masks, b.masks).ravel()
     if a.masses.shape[1] == 1:

@@ -463,9 +463,7 @@ class BeliefMap:
         g = self._graph
         found: list[Line | Point] = [ix.line(i) for i, (u, v) in enumerate(ix.ends) if g.adj[u][v].get("reinforced")]
         found += [
-            ix.point(i)
-            for i in np.flatnonzero(ix.point_kind == "corner")
-            if g.nodes[ix.point_ids[i]].get("reinforced")
+            ix.point(i) for i in np.flatnonzero(ix.point_kind == "corner") if g.nodes[ix.point_ids[i]].get("reinforced")
         ]
         return found
 

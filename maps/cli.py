@@ -175,9 +175,7 @@ def _explain_stage(cfg: Config, stage: str, name: str, m: NDArray[np.float64]) -
     """The source's masses ``m`` (one row) combined with every row of the stage's other sources."""
     others = [s for s in cfg.stage_sources(stage) if s.name != name]
     if not others:
-        return [
-            f"stage {stage}: {name} is its only source; its masses are combined into each object's stored belief"
-        ]
+        return [f"stage {stage}: {name} is its only source; its masses are combined into each object's stored belief"]
     total = math.prod(len(getattr(s, "examples", ())) for s in others)
     if not total:
         return [f"stage {stage}: its other sources show no example rows"]

@@ -145,7 +145,9 @@ def fuse_rules(scenario: Scenario, config: Config, rules: Sequence[str]) -> dict
         bm = new_map(cfg)
         outcomes = [fold_observation(bm, obs, cfg) for obs in observations]
         fuse = time.perf_counter() - start
-        runs[rule] = Run(world, cfg, observations, outcomes, bm, {"simulate": simulate, "fuse": fuse, "total": simulate + fuse})
+        runs[rule] = Run(
+            world, cfg, observations, outcomes, bm, {"simulate": simulate, "fuse": fuse, "total": simulate + fuse}
+        )
     return runs
 
 
@@ -260,7 +262,9 @@ def line_beliefs(run: Run) -> tuple[NDArray[np.float64], NDArray[np.str_]]:
     return belief.reshape(-1), store.truth.copy()
 
 
-def _segment_distance(points: NDArray[np.float64], p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
+def _segment_distance(
+    points: NDArray[np.float64], p: NDArray[np.float64], q: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """(M, N) distance from each point to each segment p-q."""
     d = q - p
     w = points[:, None, :] - p[None, :, :]
@@ -296,8 +300,9 @@ def _config(path: str | None) -> Config:
     return load_config(path)
 
 
-def compare_world(index: int, seed: int, rules: Sequence[str], config_path: str | None = None,
-                  params: WorldGenParams | None = None) -> WorldResult:
+def compare_world(
+    index: int, seed: int, rules: Sequence[str], config_path: str | None = None, params: WorldGenParams | None = None
+) -> WorldResult:
     """World ``index`` of the experiment ``seed``: generated, sensed once, fused by every rule.
 
     >>> r = compare_world(0, 1, ["dempster", "bayes"])
@@ -393,7 +398,7 @@ def check_rules(rules: Sequence[str] | str) -> tuple[str, ...]:
     >>> check_rules("dempster,nope")
     Traceback (most recent call last):
     ...
-    ValueError: rules: unknown rule 'nope'; known rules: bayes, cautious, conjunctive, dempster, disjunctive, dubois_prade, murphy, pcr6, yager
+    ValueError: rules: unknown rule 'nope'; known rules: bayes, cautious, ...
     """
     names = [r.strip() for r in (rules.split(",") if isinstance(rules, str) else rules)]
     if not names or any(not n for n in names):
@@ -428,8 +433,11 @@ def _compute(tasks: list[Any], scheduler: str | None, workers: int | None, progr
 
         if scheduler is None:
             cluster = LocalCluster(
-                n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                dashboard_address=None, silence_logs=logging.ERROR,
+                n_workers=workers or os.cpu_count() or 1,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
             )
             client = Client(cluster)
         else:
@@ -464,7 +472,10 @@ def _aggregate(rules: tuple[str, ...], worlds: int, seed: int, results: list[Wor
 
 
 def write_comparison(comparison: Comparison, out: str | Path) -> None:
-    """Write ``summary.csv``, ``worlds.csv``, ``summary.md``, the plots and ``worlds/*.yaml`` into ``out`` (existing)."""
+    """Write ``summary.csv``, ``worlds.csv``, ``summary.md``, the plots and ``worlds/*.yaml`` into ``out``.
+
+    ``out`` must exist.
+    """
     out = Path(out)
     _write_csv(out / "summary.csv", [*COLUMNS, "worlds"], comparison.summary)
     _write_csv(out / "worlds.csv", ["world", *COLUMNS], comparison.rows)
@@ -489,7 +500,9 @@ def summary_markdown(comparison: Comparison) -> str:
         "| " + " | ".join(["---", *["---:"] * len(shown)]) + " |",
     ]
     for row in comparison.summary:
-        cells = ["" if row[c] is None else f"{row[c]:.4f}" if c.startswith("seconds") else f"{row[c]:.3f}" for c in shown]
+        cells = [
+            "" if row[c] is None else f"{row[c]:.4f}" if c.startswith("seconds") else f"{row[c]:.3f}" for c in shown
+        ]
         out.append("| " + " | ".join([row["rule"], *cells]) + " |")
     return "\n".join(out) + "\n"
 
@@ -513,10 +526,16 @@ def _plot_recall_loss(comparison: Comparison, path: Path) -> None:
     for k, rule in enumerate(comparison.rules):
         color, marker = f"C{k % 10}", markers[k % len(markers)]
         size = max(30, 180 - 25 * k)  # decreasing, so that rules with equal means stay visible
-        mine = [r for r in comparison.rows if r["rule"] == rule and r["noise_recall"] is not None and r["real_loss"] is not None]
+        mine = [
+            r
+            for r in comparison.rows
+            if r["rule"] == rule and r["noise_recall"] is not None and r["real_loss"] is not None
+        ]
         ax.scatter([r["real_loss"] for r in mine], [r["noise_recall"] for r in mine], s=8, alpha=0.25, color=color)
         mean = next(r for r in comparison.summary if r["rule"] == rule)
-        ax.scatter(mean["real_loss"], mean["noise_recall"], s=size, marker=marker, color=color, edgecolor="k", label=rule)
+        ax.scatter(
+            mean["real_loss"], mean["noise_recall"], s=size, marker=marker, color=color, edgecolor="k", label=rule
+        )
     ax.set_xlabel("real loss (real segments eliminated)")
     ax.set_ylabel("noise recall (phantom segments eliminated)")
     ax.set_title(f"{comparison.worlds} worlds: each world (dots) and the mean per rule")
@@ -564,10 +583,14 @@ def add_compare_parser(subparsers: argparse._SubParsersAction) -> argparse.Argum
     (True, 'dempster,yager,dubois_prade,pcr6,murphy,bayes', 3, 0)
     """
     compare = subparsers.add_parser(
-        "compare", help="compare combination rules on generated worlds with ground truth",
-        description="Run every rule on every generated world with the same scans; write tables, per-world rows and plots.",
+        "compare",
+        help="compare combination rules on generated worlds with ground truth",
+        description="Run every rule on every generated world with the same scans; "
+        "write tables, per-world rows and plots.",
     )
-    compare.add_argument("--rules", default=",".join(DEFAULT_RULES), help="comma-separated rule names (default: %(default)s)")
+    compare.add_argument(
+        "--rules", default=",".join(DEFAULT_RULES), help="comma-separated rule names (default: %(default)s)"
+    )
     compare.add_argument("--worlds", type=int, default=20, help="number of generated worlds (default: %(default)s)")
     compare.add_argument("--seed", type=int, default=0, help="seed of the experiment (default: %(default)s)")
     compare.add_argument("--out", required=True, help="output directory: must not exist or be empty (see --force)")
@@ -596,8 +619,13 @@ def compare_command(args: argparse.Namespace) -> int:
     if args.config is not None and not Path(args.config).is_file():
         raise ValueError(f"--config: no such file {args.config}")
     comparison = run_comparison(
-        check_rules(args.rules), args.worlds, args.seed, config_path=args.config,
-        scheduler=args.scheduler, workers=args.workers, progress=not args.quiet,
+        check_rules(args.rules),
+        args.worlds,
+        args.seed,
+        config_path=args.config,
+        scheduler=args.scheduler,
+        workers=args.workers,
+        progress=not args.quiet,
     )
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))

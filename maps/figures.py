@@ -126,16 +126,20 @@ def sonar_scan_figure(run: Run, pose: int = 0) -> Figure:
     _robot(ax, obs.pose, f"P{pose}")
     counts = ", ".join(f"{int((rcds.type == t).sum())} {_ROMAN[t]}" for t in _TYPE_COLOURS)
     _title(
-        ax, f"Fig. 2  Sonar scan from pose {pose} and its RCDs",
+        ax,
+        f"Fig. 2  Sonar scan from pose {pose} and its RCDs",
         f"{len(obs.sonar)} returns; {len(rcds)} RCDs of readings within "
         f"{params.range_tolerance * 100:g} cm over at least {params.min_width_deg:g}° (types: {counts})",
     )
-    _finish(fig, [
-        *_wall_handles(run),
-        Line2D([], [], ls="", marker=".", ms=4, color=_BLACK, label="return (TOF dot)"),
-        Line2D([], [], lw=0.6, color=_FAINT, label="ray, every 10th return"),
-        *_type_handles(),
-    ])
+    _finish(
+        fig,
+        [
+            *_wall_handles(run),
+            Line2D([], [], ls="", marker=".", ms=4, color=_BLACK, label="return (TOF dot)"),
+            Line2D([], [], lw=0.6, color=_FAINT, label="ray, every 10th return"),
+            *_type_handles(),
+        ],
+    )
     return fig
 
 
@@ -151,15 +155,19 @@ def lsl_lines_figure(run: Run, pose: int = 0) -> Figure:
     _segments(ax, lsl.p[phantom], lsl.q[phantom], color=_VERMILION, lw=1.6, gid="lsl-phantom")
     _robot(ax, obs.pose, f"P{pose}")
     _title(
-        ax, f"Fig. 4  LSL line map from pose {pose}",
+        ax,
+        f"Fig. 4  LSL line map from pose {pose}",
         f"{len(lsl)} segments: {int((~phantom).sum())} on true surfaces, {int(phantom.sum())} phantoms from sunlight",
     )
-    _finish(fig, [
-        *_wall_handles(run),
-        Line2D([], [], lw=1.6, color=_BLACK, label="LSL segment (real)"),
-        Line2D([], [], lw=1.6, color=_VERMILION, label="LSL segment (sunlight phantom)"),
-        *([Patch(color=_ORANGE, alpha=0.15, label="sunlight region")] if run.world.sunlight else []),
-    ])
+    _finish(
+        fig,
+        [
+            *_wall_handles(run),
+            Line2D([], [], lw=1.6, color=_BLACK, label="LSL segment (real)"),
+            Line2D([], [], lw=1.6, color=_VERMILION, label="LSL segment (sunlight phantom)"),
+            *([Patch(color=_ORANGE, alpha=0.15, label="sunlight region")] if run.world.sunlight else []),
+        ],
+    )
     return fig
 
 
@@ -183,7 +191,8 @@ def open_space_figure(run: Run, pose: int = 0) -> Figure:
     _dots(top, scan.points[multiple], _VERMILION, "multiple-reflections", size=9)
     _robot(top, obs.pose, f"P{pose}")
     _title(
-        top, "(a) Raw range scan",
+        top,
+        "(a) Raw range scan",
         f"{len(scan)} returns, {int(multiple.sum())} of them multiple reflections (SR), "
         f"{int((scan.order == 0).sum())} at max range",
     )
@@ -198,16 +207,21 @@ def open_space_figure(run: Run, pose: int = 0) -> Figure:
     types = outcome.primitive.type
     counts = ", ".join(f"{int((types == t).sum())} {_ROMAN[t]}" for t in _TYPE_COLOURS)
     _title(
-        bottom, "(b) Open space estimated from the typed RCDs",
+        bottom,
+        "(b) Open space estimated from the typed RCDs",
         f"{outcome.open_space.area:.1f} m² from {len(types)} primitive RCDs ({counts}; Type IV gives none)",
     )
-    _finish(fig, headline=f"Fig. 5  Sonar scan and open space, pose {pose}", handles=[
-        *_wall_handles(run),
-        Line2D([], [], ls="", marker=".", ms=4, color=_BLACK, label="return"),
-        Line2D([], [], ls="", marker=".", ms=6, color=_VERMILION, label="multiple reflection (SR)"),
-        Patch(color=_OPEN, alpha=0.6, label=f"open space, pose {pose}"),
-        *([Patch(color=_OPEN, alpha=0.25, label="open space, all poses")] if len(run.outcomes) > 1 else []),
-    ])
+    _finish(
+        fig,
+        headline=f"Fig. 5  Sonar scan and open space, pose {pose}",
+        handles=[
+            *_wall_handles(run),
+            Line2D([], [], ls="", marker=".", ms=4, color=_BLACK, label="return"),
+            Line2D([], [], ls="", marker=".", ms=6, color=_VERMILION, label="multiple reflection (SR)"),
+            Patch(color=_OPEN, alpha=0.6, label=f"open space, pose {pose}"),
+            *([Patch(color=_OPEN, alpha=0.25, label="open space, all poses")] if len(run.outcomes) > 1 else []),
+        ],
+    )
     return fig
 
 
@@ -237,19 +251,23 @@ def noise_figure(run: Run, pose: int = 0) -> Figure:
     _robot(ax, obs.pose, f"P{pose}")
     n_phantom, n_real = int(phantom.sum()), int((~phantom).sum())
     _title(
-        ax, f"Noise elimination of the segments from pose {pose}",
+        ax,
+        f"Noise elimination of the segments from pose {pose}",
         f"{int((phantom & gone).sum())} of {n_phantom} phantoms eliminated, {int((~phantom & gone).sum())} of "
         f"{n_real} real segments lost, {int((~gone).sum())} kept (m(noise) > {run.config.noise.threshold:g}, "
         f"{run.config.rule} rule)",
     )
-    _finish(fig, [
-        *_wall_handles(run),
-        Patch(color=_OPEN, alpha=0.3, label="sonar open space"),
-        Line2D([], [], lw=1.6, color=_BLACK, label="real, kept"),
-        Line2D([], [], lw=1.8, color=_VERMILION, label="phantom, kept"),
-        Line2D([], [], lw=1.0, color=_BLACK, alpha=0.3, label="real, eliminated"),
-        Line2D([], [], lw=1.0, color=_VERMILION, alpha=0.3, label="phantom, eliminated"),
-    ])
+    _finish(
+        fig,
+        [
+            *_wall_handles(run),
+            Patch(color=_OPEN, alpha=0.3, label="sonar open space"),
+            Line2D([], [], lw=1.6, color=_BLACK, label="real, kept"),
+            Line2D([], [], lw=1.8, color=_VERMILION, label="phantom, kept"),
+            Line2D([], [], lw=1.0, color=_BLACK, alpha=0.3, label="real, eliminated"),
+            Line2D([], [], lw=1.0, color=_VERMILION, alpha=0.3, label="phantom, eliminated"),
+        ],
+    )
     return fig
 
 
@@ -292,17 +310,21 @@ def merged_map_figure(run: Run) -> Figure:
     n_corners = sum(len(by_kind[k]) for k in ("concave", "convex", "unknown"))
     merge, corners = run.config.merge, run.config.corners
     _title(
-        ax, "Merged line map with corners",
+        ax,
+        "Merged line map with corners",
         f"{int(kept.sum())} segments → {len(lines)} lines (tolerances {merge.distance * 100:g} cm, "
         f"{merge.angle_deg:g}°); {n_corners} corners within {corners.distance * 100:g} cm "
         f"({len(by_kind['concave'])} concave, {len(by_kind['convex'])} convex)",
     )
-    _finish(fig, [
-        *_wall_handles(run),
-        Line2D([], [], lw=4.0, color=_ORANGE, alpha=0.45, label="segment after noise elimination"),
-        Line2D([], [], lw=1.3, color=_BLACK, label="merged line"),
-        *handles,
-    ])
+    _finish(
+        fig,
+        [
+            *_wall_handles(run),
+            Line2D([], [], lw=4.0, color=_ORANGE, alpha=0.45, label="segment after noise elimination"),
+            Line2D([], [], lw=1.3, color=_BLACK, label="merged line"),
+            *handles,
+        ],
+    )
     return fig
 
 
@@ -328,7 +350,8 @@ def rcd_matching_figure(run: Run, pose: int = 0) -> Figure:
     _rcd_arcs(top, obs.sonar.pose, actual, numbers, _match_status(actual, ai))
     _robot(top, obs.pose, f"P{pose}")
     _title(
-        top, "(a) RCDs of the actual scan",
+        top,
+        "(a) RCDs of the actual scan",
         f"{len(actual)} RCDs at least {run.config.rcd.min_width_deg:g}° wide, readings within "
         f"{run.config.rcd.range_tolerance * 100:g} cm",
     )
@@ -342,17 +365,22 @@ def rcd_matching_figure(run: Run, pose: int = 0) -> Figure:
         f"({numbers[a]},\u00a0{letters[s]})" for a, s in sorted(zip(ai.tolist(), si.tolist(), strict=True))
     )
     _title(
-        bottom, f"(b) Line map and the {len(predicted)} RCDs of the scan simulated from it",
+        bottom,
+        f"(b) Line map and the {len(predicted)} RCDs of the scan simulated from it",
         f"Matching RCD pairs ({len(ai)} of {len(actual)} actual RCDs): {pairs or 'none'}",
     )
-    _finish(fig, headline=f"Fig. 6  Actual and simulated RCDs, pose {pose}", handles=[
-        *_wall_handles(run),
-        Line2D([], [], lw=1.3, color=_BLACK, label="map line"),
-        *_type_handles(),
-        Patch(facecolor="white", edgecolor=_GREEN, lw=1.5, label="matched"),
-        Patch(facecolor="white", edgecolor=_VERMILION, lw=1.5, label="unmatched"),
-        Patch(facecolor="white", edgecolor=_FAINT, lw=1.5, label="unmatched, Type IV (ignored)"),
-    ])
+    _finish(
+        fig,
+        headline=f"Fig. 6  Actual and simulated RCDs, pose {pose}",
+        handles=[
+            *_wall_handles(run),
+            Line2D([], [], lw=1.3, color=_BLACK, label="map line"),
+            *_type_handles(),
+            Patch(facecolor="white", edgecolor=_GREEN, lw=1.5, label="matched"),
+            Patch(facecolor="white", edgecolor=_VERMILION, lw=1.5, label="unmatched"),
+            Patch(facecolor="white", edgecolor=_FAINT, lw=1.5, label="unmatched, Type IV (ignored)"),
+        ],
+    )
     return fig
 
 
@@ -373,8 +401,13 @@ def final_map_figure(run: Run) -> Figure:
         ("landmark-lines", _BLUE, [ln for ln in lines if ln.id in landmark_ids]),
     ):
         _segments(
-            ax, _ends(chosen, "p"), _ends(chosen, "q"), color=color,
-            lw=_belief_width(np.array([ln.belief for ln in chosen])), gid=gid, capstyle="round",
+            ax,
+            _ends(chosen, "p"),
+            _ends(chosen, "q"),
+            color=color,
+            lw=_belief_width(np.array([ln.belief for ln in chosen])),
+            gid=gid,
+            capstyle="round",
         )
     corners = bm.corners(0.0)
     for gid, color, size, chosen in (
@@ -386,8 +419,15 @@ def final_map_figure(run: Run) -> Figure:
     unidentified = bm.unidentified()
     xy = np.array([u.xy for u in unidentified], dtype=float).reshape(-1, 2)
     ax.scatter(
-        xy[:, 0], xy[:, 1], s=40 + 120 * np.array([u.belief for u in unidentified]), marker="X",
-        color=_VERMILION, edgecolors="white", linewidths=0.5, zorder=6, gid="unidentified",
+        xy[:, 0],
+        xy[:, 1],
+        s=40 + 120 * np.array([u.belief for u in unidentified]),
+        marker="X",
+        color=_VERMILION,
+        edgecolors="white",
+        linewidths=0.5,
+        zorder=6,
+        gid="unidentified",
     )
     for u in unidentified:
         _label(ax, u.xy, f"{u.id} {u.belief:.2f}", _VERMILION, offset=(6, 6), gid="unidentified-label")
@@ -395,21 +435,27 @@ def final_map_figure(run: Run) -> Figure:
         _robot(ax, pose_xy, f"P{pose_index}")
     n_landmark_lines = sum(ln.id in landmark_ids for ln in lines)
     _title(
-        ax, "Fig. 7  Final line-corner map; line width by belief Bel(real)",
+        ax,
+        "Fig. 7  Final line-corner map; line width by belief Bel(real)",
         f"{len(lines)} lines ({n_landmark_lines} reinforced), {len(corners)} corners "
         f"({sum(c.id in landmark_ids for c in corners)} reinforced), {len(unidentified)} unidentified objects; "
         f"{run.config.rule} rule",
     )
-    _finish(fig, [
-        *_wall_handles(run),
-        Line2D([], [], lw=3, color=_BLUE, label="landmark line (reinforced)"),
-        Line2D([], [], lw=3, color=_FAINT, label="line not reinforced"),
-        *[Line2D([], [], lw=float(_belief_width(b)), color=_BLACK, label=f"Bel(real) = {b:g}")
-          for b in (0.5, 0.8, 0.95)],
-        Line2D([], [], ls="", marker="o", ms=8, mfc=_BLUE, mec="white", label="landmark corner"),
-        Line2D([], [], ls="", marker="o", ms=5, mfc=_FAINT, mec="white", label="corner"),
-        Line2D([], [], ls="", marker="X", ms=9, color=_VERMILION, label="unidentified object (sonar only)"),
-    ])
+    _finish(
+        fig,
+        [
+            *_wall_handles(run),
+            Line2D([], [], lw=3, color=_BLUE, label="landmark line (reinforced)"),
+            Line2D([], [], lw=3, color=_FAINT, label="line not reinforced"),
+            *[
+                Line2D([], [], lw=float(_belief_width(b)), color=_BLACK, label=f"Bel(real) = {b:g}")
+                for b in (0.5, 0.8, 0.95)
+            ],
+            Line2D([], [], ls="", marker="o", ms=8, mfc=_BLUE, mec="white", label="landmark corner"),
+            Line2D([], [], ls="", marker="o", ms=5, mfc=_FAINT, mec="white", label="corner"),
+            Line2D([], [], ls="", marker="X", ms=9, color=_VERMILION, label="unidentified object (sonar only)"),
+        ],
+    )
     return fig
 
 
@@ -557,7 +603,7 @@ def _finish(fig: Figure, handles: Sequence[Artist], headline: str = "") -> None:
     ncols = max(1, min(len(handles), int(fig_w / (_CHAR * 0.85 * longest + 0.6)), 5))
     legend_h = _LINE * -(-len(handles) // ncols) + 0.1
     lines = [ax.get_title(loc="left").count("\n") + 1 for ax in axes]
-    title_h = [_LINE * max(lines[r * cols:(r + 1) * cols]) + _TITLE_PAD for r in range(rows)]
+    title_h = [_LINE * max(lines[r * cols : (r + 1) * cols]) + _TITLE_PAD for r in range(rows)]
     head_h = (_LINE * 1.2 * (headline.count("\n") + 1) + 0.15) if headline else 0.0
     fig_h = _PAD + head_h + sum(title_h) + rows * axes_h + _GAP * (rows - 1) + _XAXIS + legend_h + _PAD
     fig.set_size_inches(fig_w, fig_h)
@@ -571,8 +617,15 @@ def _finish(fig: Figure, handles: Sequence[Artist], headline: str = "") -> None:
         top -= _GAP
     if headline:
         fig.suptitle(headline, x=left / fig_w, y=1 - _PAD / fig_h, ha="left", va="top", fontweight="bold")
-    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, (legend_h + _PAD) / fig_h), ncols=ncols,
-               fontsize="small", frameon=False, borderaxespad=0)
+    fig.legend(
+        handles=handles,
+        loc="upper center",
+        bbox_to_anchor=(0.5, (legend_h + _PAD) / fig_h),
+        ncols=ncols,
+        fontsize="small",
+        frameon=False,
+        borderaxespad=0,
+    )
 
 
 # --------------------------------------------------------------------- drawing
@@ -586,13 +639,26 @@ def _walls(ax: Axes, run: Run, alpha: float = 1.0) -> None:
     absorbing = s.lsl_opaque & ~s.sonar_reflective
     wall = s.lsl_opaque & s.sonar_reflective
     for mask, color, lw, gid in (
-        (wall, _WALL, 1.0, "walls"), (glass, _GLASS, 2.0, "glass"), (absorbing, _ABSORBING, 2.0, "absorbing")
+        (wall, _WALL, 1.0, "walls"),
+        (glass, _GLASS, 2.0, "glass"),
+        (absorbing, _ABSORBING, 2.0, "absorbing"),
     ):
         if mask.any():
             _segments(ax, p[mask], q[mask], color=color, lw=lw, ls=_DASH, alpha=alpha, gid=gid, zorder=1)
     for xy, radius, opaque in zip(s.cylinder_centers, s.cylinder_radii, s.cylinder_lsl_opaque, strict=True):
-        ax.add_patch(Circle(xy, radius, fill=False, ec=_WALL if opaque else _GLASS, lw=1.0, ls=_DASH,
-                            alpha=alpha, gid="cylinders", zorder=1))
+        ax.add_patch(
+            Circle(
+                xy,
+                radius,
+                fill=False,
+                ec=_WALL if opaque else _GLASS,
+                lw=1.0,
+                ls=_DASH,
+                alpha=alpha,
+                gid="cylinders",
+                zorder=1,
+            )
+        )
 
 
 def _wall_handles(run: Run) -> list[Line2D]:
@@ -614,7 +680,11 @@ def _segments(
     ls = kwargs.pop("ls", "solid")
     coll = LineCollection(
         np.stack([np.asarray(p, dtype=float).reshape(-1, 2), np.asarray(q, dtype=float).reshape(-1, 2)], axis=1),
-        colors=color, linewidths=lw, linestyles=ls, gid=gid, **kwargs,  # type: ignore[arg-type]
+        colors=color,
+        linewidths=lw,
+        linestyles=ls,
+        gid=gid,
+        **kwargs,  # type: ignore[arg-type]
     )
     if "zorder" not in kwargs:
         coll.set_zorder(3)
@@ -634,17 +704,31 @@ def _scan(ax: Axes, scan: SonarScan, rays_every: int) -> None:
     points = scan.points
     origin = scan.pose[:2]
     shown = points[::rays_every]
-    ax.add_collection(LineCollection(
-        np.stack([np.broadcast_to(origin, shown.shape), shown], axis=1), colors=_FAINT, linewidths=0.6, zorder=2,
-        gid="rays",
-    ))
+    ax.add_collection(
+        LineCollection(
+            np.stack([np.broadcast_to(origin, shown.shape), shown], axis=1),
+            colors=_FAINT,
+            linewidths=0.6,
+            zorder=2,
+            gid="rays",
+        )
+    )
     _dots(ax, points, _BLACK, "returns")
 
 
 def _sunlight(ax: Axes, run: Run) -> None:
     for region in run.world.sunlight:
-        ax.add_patch(Polygon(np.array(region.polygon, dtype=float), closed=True, fc=_ORANGE, alpha=0.15, ec="none",
-                             gid="sunlight", zorder=0))
+        ax.add_patch(
+            Polygon(
+                np.array(region.polygon, dtype=float),
+                closed=True,
+                fc=_ORANGE,
+                alpha=0.15,
+                ec="none",
+                gid="sunlight",
+                zorder=0,
+            )
+        )
 
 
 def _area(ax: Axes, geometry: shapely.Geometry, color: str, alpha: float, gid: str) -> None:
@@ -657,8 +741,9 @@ def _area(ax: Axes, geometry: shapely.Geometry, color: str, alpha: float, gid: s
             codes[0], codes[-1] = MplPath.MOVETO, MplPath.CLOSEPOLY
             paths.append(MplPath(xy, codes))
     if paths:
-        ax.add_patch(PathPatch(MplPath.make_compound_path(*paths), fc=color, ec=color, alpha=alpha, lw=0.8,
-                               gid=gid, zorder=0))
+        ax.add_patch(
+            PathPatch(MplPath.make_compound_path(*paths), fc=color, ec=color, alpha=alpha, lw=0.8, gid=gid, zorder=0)
+        )
 
 
 def _robot(ax: Axes, pose: NDArray[np.float64], name: str) -> None:
@@ -667,8 +752,17 @@ def _robot(ax: Axes, pose: NDArray[np.float64], name: str) -> None:
     ax.add_patch(Circle((x, y), _ROBOT_RADIUS, fc="white", ec=_BLACK, lw=1.2, zorder=7, gid="robot"))
     tip = (x + 2 * _ROBOT_RADIUS * np.cos(heading), y + 2 * _ROBOT_RADIUS * np.sin(heading))
     ax.plot([x, tip[0]], [y, tip[1]], color=_BLACK, lw=1.5, zorder=7, gid="robot-heading")
-    ax.annotate(name, (x, y), xytext=(-8, -8), textcoords="offset points", ha="right", va="top",
-                fontsize="small", fontweight="bold", zorder=7)
+    ax.annotate(
+        name,
+        (x, y),
+        xytext=(-8, -8),
+        textcoords="offset points",
+        ha="right",
+        va="top",
+        fontsize="small",
+        fontweight="bold",
+        zorder=7,
+    )
 
 
 def _match_status(rcds: Rcds, matched: NDArray[np.intp]) -> list[str]:
@@ -693,10 +787,16 @@ def _rcd_arcs(
     for direction, width, r in zip(rcds.direction, rcds.width, rcds.range, strict=True):
         t = np.linspace(direction - width / 2, direction + width / 2, max(2, int(np.ceil(width / _ARC_STEP)) + 1))
         arcs.append(origin + r * np.column_stack([np.cos(t), np.sin(t)]))
-    ax.add_collection(LineCollection(
-        arcs, colors=[_TYPE_COLOURS[int(t)] for t in rcds.type], linewidths=3.0, capstyle="butt", zorder=4,
-        gid="rcd-arcs",
-    ))
+    ax.add_collection(
+        LineCollection(
+            arcs,
+            colors=[_TYPE_COLOURS[int(t)] for t in rcds.type],
+            linewidths=3.0,
+            capstyle="butt",
+            zorder=4,
+            gid="rcd-arcs",
+        )
+    )
     box = np.array([*ax.get_xlim(), *ax.get_ylim()])
     inset = 0.04 * min(box[1] - box[0], box[3] - box[2])
     beyond = 0.02 * max(box[1] - box[0], box[3] - box[2])  # from the arc to its label
@@ -705,8 +805,14 @@ def _rcd_arcs(
         u = np.array([np.cos(direction), np.sin(direction)])
         distance = min(r + beyond, _inside(origin, u, box, inset))
         xy = origin + distance * u
-        _label(ax, xy, f"{labels[k]}·{_ROMAN[int(kind)]}", _TYPE_COLOURS[int(kind)], edge=_STATUS_EDGE[status[k]],
-               gid="rcd-label")
+        _label(
+            ax,
+            xy,
+            f"{labels[k]}·{_ROMAN[int(kind)]}",
+            _TYPE_COLOURS[int(kind)],
+            edge=_STATUS_EDGE[status[k]],
+            gid="rcd-label",
+        )
 
 
 def _inside(origin: NDArray[np.float64], u: NDArray[np.float64], box: NDArray[np.float64], inset: float) -> float:
@@ -720,13 +826,28 @@ def _inside(origin: NDArray[np.float64], u: NDArray[np.float64], box: NDArray[np
 
 
 def _label(
-    ax: Axes, xy: Sequence[float], text: str, color: str, *, edge: str = "none",
-    offset: tuple[float, float] = (0, 0), gid: str,
+    ax: Axes,
+    xy: Sequence[float],
+    text: str,
+    color: str,
+    *,
+    edge: str = "none",
+    offset: tuple[float, float] = (0, 0),
+    gid: str,
 ) -> None:
     ax.annotate(
-        text, tuple(xy), xytext=offset, textcoords="offset points", ha="center" if offset == (0, 0) else "left",
-        va="center" if offset == (0, 0) else "bottom", fontsize="x-small", color=color, fontweight="bold", zorder=8,
-        bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": edge, "lw": 1.2, "alpha": 0.85}, gid=gid,
+        text,
+        tuple(xy),
+        xytext=offset,
+        textcoords="offset points",
+        ha="center" if offset == (0, 0) else "left",
+        va="center" if offset == (0, 0) else "bottom",
+        fontsize="x-small",
+        color=color,
+        fontweight="bold",
+        zorder=8,
+        bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": edge, "lw": 1.2, "alpha": 0.85},
+        gid=gid,
         annotation_clip=True,
     )
 

@@ -250,8 +250,7 @@ def _kruskal(
     rows = np.column_stack([pv, qv, length]).tolist()
     bounds = np.r_[0, np.cumsum(np.bincount(owner, minlength=nodes.size))].tolist()
     sets = {  # root -> (moments, rows (px, py, qx, qy, length) of its inputs, its current lines)
-        v: (m, rows[lo:hi], [v])
-        for v, m, lo, hi in zip(nodes.tolist(), moments.tolist(), bounds[:-1], bounds[1:])
+        v: (m, rows[lo:hi], [v]) for v, m, lo, hi in zip(nodes.tolist(), moments.tolist(), bounds[:-1], bounds[1:])
     }
     parent = {v: v for v in sets}
 

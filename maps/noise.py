@@ -66,7 +66,11 @@ def noise_evidence(
     frame = config.frame
     if "noise" not in frame.elements:
         raise ValueError(f"{config.name}: noise elimination needs an element 'noise' in the frame {frame!r}")
-    features = {**(features or {}), "relation": relation(p, q, open_space, config.noise), "length": np.hypot(*(q - p).T)}
+    features = {
+        **(features or {}),
+        "relation": relation(p, q, open_space, config.noise),
+        "length": np.hypot(*(q - p).T),
+    }
     batches = [source.masses(features) for source in config.stage_sources("noise_elimination")]
     fused = np.ascontiguousarray(combine_batch(*batches, rule=config.rule))
     k = combine_batch(*batches, rule="conjunctive")[:, 0] if len(batches) > 1 else np.zeros(len(p))

@@ -69,9 +69,7 @@ class OccupancyParams(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    free_mass: float = Field(
-        0.7, ge=0, lt=1, description="m(free) of a cell whose centre lies in the sonar open space"
-    )
+    free_mass: float = Field(0.7, ge=0, lt=1, description="m(free) of a cell whose centre lies in the sonar open space")
     occupied_mass: float = Field(
         1.0, ge=0, le=1, description="m(occupied) of a cell holding an object of belief 1; scaled by Bel(real)"
     )

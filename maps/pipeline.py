@@ -43,7 +43,7 @@ from evidential import MassFunction, combine
 from maps.belief_map import BeliefMap
 from maps.corners import find_corners
 from maps.matching import match_rcds
-from maps.merging import merge_segments
+from maps.merging import Merged, merge_segments
 from maps.noise import noise_evidence
 from maps.observation import Observation
 from maps.segments import SegmentStore
@@ -122,9 +122,8 @@ def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOut
     if len(new):
         ends = np.concatenate([store.p[new], store.q[new]])
         bounds = np.r_[np.minimum(bounds[:2], ends.min(axis=0)), np.maximum(bounds[2:], ends.max(axis=0))]
-    region = tuple(bounds + np.array([-margin, -margin, margin, margin]))
-    touched = store.near(region)
-    _judge(bm, touched, region, config)
+    touched = store.near(tuple(bounds + np.array([-margin, -margin, margin, margin])))
+    _judge(bm, touched, config)
 
     # 3.-4. merge and find corners near the change
     touched_lines = _rebuild(bm, touched, config, pose[:2])
@@ -175,33 +174,58 @@ def map_surfaces(bm: BeliefMap, bounds: tuple[float, float, float, float] | None
 # --------------------------------------------------------------------- stages
 
 
-def _judge(bm: BeliefMap, ids: NDArray[np.intp], region: tuple[float, float, float, float], config: Config) -> None:
-    """Noise elimination of the stored segments ``ids`` (all within ``region``) against the map's open space."""
+def _judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
+    """Noise elimination of the stored segments ``ids`` against the map's open space."""
     store: SegmentStore = bm.segments
+    if not len(ids):
+        return
+    ends = np.concatenate([store.p[ids], store.q[ids]])
+    space = bm.open_space_near((*ends.min(axis=0), *ends.max(axis=0)))
     features = {name: column[ids] for name, column in store.features.items()}
-    ev = noise_evidence(store.p[ids], store.q[ids], bm.open_space_near(region), config, features)
+    ev = noise_evidence(store.p[ids], store.q[ids], space, config, features)
     store.relation[ids] = ev.relation
     store.mass[ids] = ev.fused
     store.conflict[ids] = ev.conflict
     store.eliminated[ids] = ev.eliminated
 
 
+@dataclass
+class _Line:
+    """A line about to be (re)attached: its fitted ends, the points its ends must keep, its data."""
+
+    fit: NDArray[np.float64]  # (2, 2): the ends as merged, before corners move them
+    fixed: tuple[str | None, str | None]  # the point each end stays on, None: found anew
+    data: dict[str, Any]  # id, mass, history, extras
+
+
 def _rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint: NDArray[np.float64]) -> set[str]:
     """Re-merge the surviving segments near the change and re-find the corners there.
 
-    Returns the ids of every line added or re-attached.
+    Every line holding a touched segment is dissolved, and its surviving segments
+    are merged again with the touched ones; the lines meeting a dissolved line or
+    a new line near its ends are detached and re-attached with the new ones, so
+    their corners are found anew. Returns the ids of every line (re)attached.
     """
     store: SegmentStore = bm.segments
     g = bm.graph
-    dissolved = sorted(set(store.line[touched].tolist()) - {""})
-    old_ends = {lid: _line_ends(bm, lid) for lid in dissolved}
-    members = [np.asarray(g.edges[old_ends[lid]]["members"], dtype=np.intp) for lid in dissolved]
+    dissolved = {lid: _line_ends(bm, lid) for lid in sorted(set(store.line[touched].tolist()) - {""})}
+    members = [np.asarray(g.edges[ends]["members"], dtype=np.intp) for ends in dissolved.values()]
     pool = np.union1d(touched, np.concatenate([np.zeros(0, dtype=np.intp), *members]))
     pool = pool[~store.eliminated[pool]]
     merged = merge_segments(store.p[pool], store.q[pool], config.merge)
 
-    # lines whose ends may change: the dissolved ones, and those meeting them or the new lines
-    affected = {n for u, v in old_ends.values() for n in (u, v)}
+    affected = _affected_points(bm, dissolved, merged, config)
+    histories = {lid: g.edges[ends]["history"] for lid, ends in dissolved.items()}
+    kept, removed = _detach(bm, dissolved, affected)
+    lines = kept + _new_lines(bm, pool, merged, histories, config)
+    store.line[touched[store.eliminated[touched]]] = ""
+    return _attach(bm, lines, removed, viewpoint, config)
+
+
+def _affected_points(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], merged: Merged, config: Config) -> set[str]:
+    """The points whose lines change: the dissolved lines' ends, and points near the new lines' ends."""
+    g = bm.graph
+    affected = {n for ends in dissolved.values() for n in ends}
     if len(merged.p):
         ends = np.concatenate([merged.p, merged.q])
         reach = 2 * config.corners.distance + 1e-9
@@ -211,95 +235,111 @@ def _rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint
             xy = np.array([g.nodes[n]["xy"] for n in points])
             d = np.hypot(*(xy[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)).min(axis=1)
             affected |= {points[i] for i in np.flatnonzero(d <= reach)}
+    return affected
 
-    old_records = {lid: g.edges[old_ends[lid]]["history"] for lid in dissolved}
-    kept: list[dict[str, Any]] = []  # lines re-attached: their data, fitted ends, fixed end points
-    around = sorted({d["id"] for n in affected for _, _, d in g.edges(n, data=True)} - set(old_ends))
-    for lid in around:
+
+def _detach(
+    bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[str]
+) -> tuple[list[_Line], list[tuple[tuple[float, float], list[dict[str, Any]]]]]:
+    """Remove the dissolved lines, the lines at affected points, and those points.
+
+    Returns the lines to re-attach (each end not at an affected point stays on
+    its point) and the removed corners' positions and histories.
+    """
+    g = bm.graph
+    kept = []
+    for lid in sorted({d["id"] for n in affected for _, _, d in g.edges(n, data=True)} - set(dissolved)):
         u, v = _line_ends(bm, lid)
         d = g.edges[u, v]
         fixed = (None if u in affected else u, None if v in affected else v)
-        kept.append({"data": dict(d), "fit": np.array(d["fit"], dtype=float), "fixed": fixed})
-    for entry in kept:
-        bm.remove_line(entry["data"]["id"])
-    for lid in dissolved:
+        kept.append(_Line(np.array(d["fit"], dtype=float), fixed, dict(d)))
+    for lid in [line.data["id"] for line in kept] + list(dissolved):
         bm.remove_line(lid)
-    removed_points = [(g.nodes[n]["xy"], g.nodes[n]["history"]) for n in affected if g.nodes[n]["kind"] == "corner"]
+    removed = [(g.nodes[n]["xy"], g.nodes[n]["history"]) for n in affected if g.nodes[n]["kind"] == "corner"]
     for n in affected:
         bm.remove_point(n)
+    return kept, removed
 
-    # the new lines: fitted ends, base mass from merged length and relation (other features
-    # from the longest member), sonar records carried over
-    pool_length = np.hypot(*(store.q[pool] - store.p[pool]).T)
-    pool_ends = np.concatenate([store.p[pool], store.q[pool]])
-    longest = np.array([pool[g][np.argmax(pool_length[g])] for g in merged.groups], dtype=np.intp)
+
+def _new_lines(
+    bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, histories: dict[str, list[dict[str, Any]]], config: Config
+) -> list[_Line]:
+    """The merged lines: mass from their merged length and relation (other features from their
+    longest member), and the sonar records of the lines they replace."""
+    store: SegmentStore = bm.segments
+    if not len(pool):
+        return []
+    length = np.hypot(*(store.q[pool] - store.p[pool]).T)
+    longest = np.array([pool[group][np.argmax(length[group])] for group in merged.groups], dtype=np.intp)
     features = {name: column[longest] for name, column in store.features.items()}
-    space = bm.open_space_near((*pool_ends.min(axis=0), *pool_ends.max(axis=0))) if len(pool) else shapely.Polygon()
+    ends = np.concatenate([store.p[pool], store.q[pool]])
+    space = bm.open_space_near((*ends.min(axis=0), *ends.max(axis=0)))
     base = noise_evidence(merged.p, merged.q, space, config, features)
-    lines = kept
+    lines = []
     for k, group in enumerate(merged.groups):
         members = pool[group]
-        records = _carried_records([old_records[lid] for lid in set(store.line[members].tolist()) if lid in old_records])
+        replaced = set(store.line[members].tolist()) & set(histories)
+        records = _carried_records([histories[lid] for lid in sorted(replaced)])
         first = {
             "stage": "noise_elimination",
             "poses": sorted(set(store.pose[members].tolist())),
             "relation": str(base.relation[k]),
             "length": float(base.length[k]),
-            "mass": _mass_dict(bm, base.fused[k]),
+            "mass": _mass(bm, base.fused[k]).to_dict(),
         }
         history = [first, *records]
         lid = _next_id(bm, "L")
         store.line[members] = lid
-        lines.append(
-            {
-                "fit": np.stack([merged.p[k], merged.q[k]]),
-                "fixed": (None, None),
-                "data": {
-                    "id": lid,
-                    "mass": _fold_history(bm, history, config),
-                    "history": history,
-                    "members": members.tolist(),
-                    "reinforced": any(r.get("category") == "matched" for r in records),
-                },
-            }
-        )
-    store.line[touched[store.eliminated[touched]]] = ""
+        data = {
+            "id": lid,
+            "mass": _fold_history(bm, history, config),
+            "history": history,
+            "members": members.tolist(),
+            "reinforced": any(r["category"] == "matched" for r in records),
+        }
+        lines.append(_Line(np.stack([merged.p[k], merged.q[k]]), (None, None), data))
+    return lines
 
-    # corners among the ends that are not fixed to a point outside the change
-    fits = np.array([ln["fit"] for ln in lines]).reshape(-1, 2, 2)
+
+def _attach(
+    bm: BeliefMap,
+    lines: list[_Line],
+    removed: list[tuple[tuple[float, float], list[dict[str, Any]]]],
+    viewpoint: NDArray[np.float64],
+    config: Config,
+) -> set[str]:
+    """Add the lines, their ends meeting at corners (a corner keeps the sonar records of a removed
+    corner within the corner distance) or free; return their ids."""
+    g = bm.graph
+    fits = np.array([line.fit for line in lines]).reshape(-1, 2, 2)
     corners = find_corners(fits[:, 0], fits[:, 1], config.corners, viewpoint)
-    end_point: dict[tuple[int, int], str] = {}
-    for i, ln in enumerate(lines):
-        for e in (0, 1):
-            if ln["fixed"][e] is not None:
-                end_point[i, e] = ln["fixed"][e]
-    for k, members in enumerate(corners.ends):
-        pairs = [tuple(pair) for pair in members.tolist()]
+    end_point = {(i, e): line.fixed[e] for i, line in enumerate(lines) for e in (0, 1) if line.fixed[e] is not None}
+    for k, ends in enumerate(corners.ends):
+        pairs = [tuple(pair) for pair in ends.tolist()]
         if any(pair in end_point for pair in pairs):
-            continue
+            continue  # an end already on a point outside the change stays there
         cid = _next_id(bm, "C")
         xy = corners.xy[k]
-        history = _carried_records(
-            [h for pxy, h in removed_points if np.hypot(*(np.asarray(pxy) - xy)) <= config.corners.distance]
-        )
+        near = [h for pxy, h in removed if np.hypot(*(np.asarray(pxy) - xy)) <= config.corners.distance]
+        history = _carried_records(near)
+        reinforced = any(r["category"] == "matched" for r in history)
         bm.add_point(
-            cid, xy, "corner", _vacuous(bm), history=history, shape=str(corners.shape[k]),
-            reinforced=any(r.get("category") == "matched" for r in history),
+            cid, xy, "corner", _vacuous(bm), history=history, shape=str(corners.shape[k]), reinforced=reinforced
         )
         for pair in pairs:
             end_point[pair] = cid
     added: set[str] = set()
-    for i, ln in enumerate(lines):
-        data = ln["data"]
+    for i, line in enumerate(lines):
         nodes: list[str] = []
         for e in (0, 1):
             node = end_point.get((i, e))
             if node is None or (nodes and (nodes[0] == node or g.has_edge(nodes[0], node))):
                 node = _next_id(bm, "E")  # a free end, or a second line between the same two points
-                bm.add_point(node, ln["fit"][e], "endpoint", _vacuous(bm))
+                bm.add_point(node, line.fit[e], "endpoint", _vacuous(bm))
             nodes.append(node)
+        data = line.data
         extras = {k: v for k, v in data.items() if k not in ("id", "kind", "mass", "history", "fit")}
-        bm.add_line(data["id"], *nodes, data["mass"], history=data["history"], fit=ln["fit"].tolist(), **extras)
+        bm.add_line(data["id"], *nodes, data["mass"], history=data["history"], fit=line.fit.tolist(), **extras)
         added.add(data["id"])
     return added
 
@@ -328,7 +368,9 @@ def _masked(actual: SonarScan, predicted_scan: SonarScan, predicted: Rcds, confi
     return masked
 
 
-def _in_sight(surfaces: Surfaces, pose: NDArray[np.float64], actual: Rcds, which: NDArray[np.intp], config: Config) -> NDArray[np.bool_]:
+def _in_sight(
+    surfaces: Surfaces, pose: NDArray[np.float64], actual: Rcds, which: NDArray[np.intp], config: Config
+) -> NDArray[np.bool_]:
     """Which RCDs could come from a target in sight: some direction of the RCD reaches its range unblocked.
 
     A target behind a map line across the whole RCD is a multiple reflection, not an object.
@@ -344,7 +386,12 @@ def _in_sight(surfaces: Surfaces, pose: NDArray[np.float64], actual: Rcds, which
 
 
 def _reinforce(
-    bm: BeliefMap, predicted: Rcds, matched: NDArray[np.intp], masked: NDArray[np.bool_], pose_index: int, config: Config
+    bm: BeliefMap,
+    predicted: Rcds,
+    matched: NDArray[np.intp],
+    masked: NDArray[np.bool_],
+    pose_index: int,
+    config: Config,
 ) -> dict[str, str]:
     """Fold the reinforcement evidence into every object a simulated direct-echo RCD came from."""
     categories: dict[str, str] = {}
@@ -366,15 +413,22 @@ def _reinforce(
     rows = [source.masses({"sonar_match": feature}) for source in stage]
     for i, obj in enumerate(names):
         for source, batch in zip(stage, rows, strict=True):
-            record = {"stage": "reinforcement", "pose": pose_index, "sensor": "sonar", "source": source.name,
-                      "category": categories[obj]}
+            record = {
+                "stage": "reinforcement",
+                "pose": pose_index,
+                "sensor": "sonar",
+                "source": source.name,
+                "category": categories[obj],
+            }
             bm.fold(obj, _mass(bm, batch[i]), record)
         if categories[obj] == "matched":
             bm.set_attrs(obj, reinforced=True)
     return categories
 
 
-def _unidentified(bm: BeliefMap, actual: Rcds, unmatched: NDArray[np.intp], obs: Observation, config: Config) -> list[str]:
+def _unidentified(
+    bm: BeliefMap, actual: Rcds, unmatched: NDArray[np.intp], obs: Observation, config: Config
+) -> list[str]:
     """Unmatched actual RCDs of Type I-III become unidentified objects (or reinforce one within the radius)."""
     g = bm.graph
     pose = obs.pose
@@ -386,12 +440,22 @@ def _unidentified(bm: BeliefMap, actual: Rcds, unmatched: NDArray[np.intp], obs:
     for j, k in enumerate(keep):
         xy = pose[:2] + actual.range[k] * np.array([np.cos(actual.direction[k]), np.sin(actual.direction[k])])
         radius = config.unidentified.merge_radius
-        around = [n for n in bm.near((*(xy - radius), *(xy + radius)), "points") if g.nodes[n]["kind"] == "unidentified"]
+        around = [
+            n for n in bm.near((*(xy - radius), *(xy + radius)), "points") if g.nodes[n]["kind"] == "unidentified"
+        ]
         near = [(np.hypot(*(np.asarray(g.nodes[n]["xy"]) - xy)), n) for n in around]
         near = [c for c in near if c[0] <= radius]
         records = [
-            ({"stage": "unidentified", "pose": obs.pose_index, "sensor": "sonar", "source": source.name,
-              "rcd_type": _ROMAN[int(actual.type[k])]}, _mass(bm, batch[j]))
+            (
+                {
+                    "stage": "unidentified",
+                    "pose": obs.pose_index,
+                    "sensor": "sonar",
+                    "source": source.name,
+                    "rcd_type": _ROMAN[int(actual.type[k])],
+                },
+                _mass(bm, batch[j]),
+            )
             for source, batch in zip(stage, rows, strict=True)
         ]
         if near:
@@ -425,10 +489,7 @@ def _refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> N
         if d["kind"] == "endpoint":
             bm.set_attrs(n, mass=weakest)
         elif d["kind"] == "corner":
-            mass = weakest
-            for record in d["history"]:
-                mass = combine(mass, MassFunction.from_dict(bm.frame, record["mass"], open_world=True), rule=config.rule)
-            bm.set_attrs(n, mass=mass)
+            bm.set_attrs(n, mass=_folded(bm, weakest, d["history"], config))
 
 
 # --------------------------------------------------------------------- helpers
@@ -466,19 +527,19 @@ def _carried_records(histories: Iterable[list[dict[str, Any]]]) -> list[dict[str
 
 
 def _fold_history(bm: BeliefMap, history: list[dict[str, Any]], config: Config) -> MassFunction:
-    """The mass a history gives: its records' masses folded in order by the config's rule."""
-    mass = MassFunction.from_dict(bm.frame, history[0]["mass"], open_world=True)
-    for record in history[1:]:
+    """The mass a line's history gives: its first record's mass, the others folded in order."""
+    return _folded(bm, MassFunction.from_dict(bm.frame, history[0]["mass"], open_world=True), history[1:], config)
+
+
+def _folded(bm: BeliefMap, mass: MassFunction, records: list[dict[str, Any]], config: Config) -> MassFunction:
+    """``mass`` with the records' masses folded in one by one by the config's rule."""
+    for record in records:
         mass = combine(mass, MassFunction.from_dict(bm.frame, record["mass"], open_world=True), rule=config.rule)
     return mass
 
 
 def _mass(bm: BeliefMap, row: NDArray[np.float64]) -> MassFunction:
     return MassFunction.from_dense(bm.frame, row, open_world=True)
-
-
-def _mass_dict(bm: BeliefMap, row: NDArray[np.float64]) -> dict[str, float]:
-    return _mass(bm, row).to_dict()
 
 
 def _vacuous(bm: BeliefMap) -> MassFunction:

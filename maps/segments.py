@@ -166,7 +166,9 @@ class SegmentStore:
             if column.size == 0:
                 column = column.reshape(template.shape)
             if column.shape[1:] != template.shape[1:]:
-                raise ValueError(f"segments.{name}: rows of shape {template.shape[1:]} expected, got {column.shape[1:]}")
+                raise ValueError(
+                    f"segments.{name}: rows of shape {template.shape[1:]} expected, got {column.shape[1:]}"
+                )
             columns[name] = column
         features = data.get("features", {})
         if not isinstance(features, dict):

@@ -289,9 +289,7 @@ def _build(spec: ConfigFile, name: str) -> Config:
             raise SpecError((*at, "kind"), f"unknown source kind {kind!r}; kinds are: {', '.join(sorted(KINDS))}")
         source_spec = validate(KINDS[kind].spec, data, name, at)
         if source_spec.frame not in frames:
-            raise SpecError(
-                (*at, "frame"), f"unknown frame {source_spec.frame!r}; frames are: {', '.join(frames)}"
-            )
+            raise SpecError((*at, "frame"), f"unknown frame {source_spec.frame!r}; frames are: {', '.join(frames)}")
         frame = frames[source_spec.frame]
         aliases = spec.frames[source_spec.frame].aliases
 
@@ -316,8 +314,7 @@ def _build(spec: ConfigFile, name: str) -> Config:
             if built[source_name].frame != frames[spec.frame]:
                 raise SpecError(
                     at,
-                    f"source {source_name!r} is on frame {source_frame!r}, not on the config's frame "
-                    f"{spec.frame!r}",
+                    f"source {source_name!r} is on frame {source_frame!r}, not on the config's frame {spec.frame!r}",
                 )
         stages[stage] = tuple(names)
 

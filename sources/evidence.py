@@ -231,9 +231,7 @@ def mass_row(
     return row
 
 
-def table_masses(
-    values: ArrayLike, *, categories: NDArray[np.str_], rows: NDArray[np.float64]
-) -> NDArray[np.float64]:
+def table_masses(values: ArrayLike, *, categories: NDArray[np.str_], rows: NDArray[np.float64]) -> NDArray[np.float64]:
     """Masses of N objects from their categories: row ``rows[i]`` for category ``categories[i]``.
 
     ``categories`` must be sorted (they are searched); every value must be one of them.

@@ -199,4 +199,3 @@ def extract_rcds(scan: SonarScan, params: RcdParams, *, primitive: bool = False)
         return rcds
     echo = rcds.range < scan.params.max_range - tol
     return rcds.select(echo & (rcds.width >= np.radians(params.min_width_deg) - 1e-9))
-

@@ -18,6 +18,7 @@ cut into polylines where the material changes. Coordinates are multiples of
 :class:`sources.scenario.Scenario`; the scenario's ``seed`` is the generator's seed,
 so its sensor noise and sunlight lines derive from the same number.
 
+>>> from sources.scenario import parse_scenario
 >>> s = generate_world(3)
 >>> s.name, s.seed, len(s.robot.poses) >= 1, len(s.world.sunlight) >= 1
 ('world-3', 3, True, True)
@@ -37,7 +38,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from .loading import validate
-from .scenario import Scenario, parse_scenario
+from .scenario import Scenario
 
 __all__ = ["WorldGenParams", "generate_world", "scenario_yaml", "wall_segment_count", "world_seed"]
 
@@ -65,7 +66,9 @@ class WorldGenParams(BaseModel):
     rooms: CountRange = Field((2, 6), description="rooms along the corridor's two sides")
     room_width: Range = (2.5, 4.5)
     room_depth: Range = (2.5, 4.0)
-    wall_thickness: float = Field(0.15, gt=0, le=1, description="between the corridor and a room, and between rooms (m)")
+    wall_thickness: float = Field(
+        0.15, gt=0, le=1, description="between the corridor and a room, and between rooms (m)"
+    )
     door_width: Range = (0.8, 1.1)
     passage_share: float = Field(0.3, ge=0, le=1, description="probability that a room opens by a passage, not a door")
     passage_width: Range = (1.5, 2.5)
@@ -84,7 +87,9 @@ class WorldGenParams(BaseModel):
     pillar_radius: Range = (0.1, 0.25)
     poses: CountRange = Field((1, 2), description="robot poses")
     pose_step: Range = Field((1.0, 3.0), description="distance of a later pose from the first (m)")
-    clearance: float = Field(0.4, gt=0, le=5, description="a pose's distance from walls, partitions, pillars and sunlight (m)")
+    clearance: float = Field(
+        0.4, gt=0, le=5, description="a pose's distance from walls, partitions, pillars and sunlight (m)"
+    )
     sight_range: float = Field(6.0, gt=0, le=100, description="the first pose sees a sunlight region this close (m)")
 
     @model_validator(mode="after")
@@ -139,8 +144,10 @@ def scenario_yaml(scenario: Scenario) -> str:
 
     Only the keys the scenario was given are written (defaults stay implicit).
 
-    >>> print(scenario_yaml(parse_scenario(
-    ...     "{version: 1, name: box, world: {walls: [{id: w, points: [[0, 0], [1, 0]]}]}, robot: {poses: [[0, 1, 0]]}}", "x")))
+    >>> from sources.scenario import parse_scenario
+    >>> text = "{version: 1, name: box, world: {walls: [{id: w, points: [[0, 0], [1, 0]]}]}, "
+    >>> text += "robot: {poses: [[0, 1, 0]]}}"
+    >>> print(scenario_yaml(parse_scenario(text, "x")))
     version: 1
     name: box
     world:
@@ -341,7 +348,9 @@ class _Builder:
             w["points"] = _coords(w["points"])
         return [{"id": w["id"], "points": w["points"], "material": w["material"]} for w in walls]
 
-    def sunlight(self, free: shapely.Polygon, windows: list[tuple[np.ndarray, np.ndarray]]) -> list[tuple[shapely.Polygon, int]]:
+    def sunlight(
+        self, free: shapely.Polygon, windows: list[tuple[np.ndarray, np.ndarray]]
+    ) -> list[tuple[shapely.Polygon, int]]:
         """A region inside some windows (every world with a window gets at least one): ``(polygon, lines)``."""
         p = self.params
         inner = free.buffer(-0.1, join_style="mitre")
@@ -353,7 +362,12 @@ class _Builder:
             u = (b - a) / np.hypot(*(b - a))
             depth = self.uniform(p.sunlight_depth)
             while depth >= 0.6:
-                corners = [a + 0.1 * u + 0.15 * n, b - 0.1 * u + 0.15 * n, b - 0.1 * u + depth * n, a + 0.1 * u + depth * n]
+                corners = [
+                    a + 0.1 * u + 0.15 * n,
+                    b - 0.1 * u + 0.15 * n,
+                    b - 0.1 * u + depth * n,
+                    a + 0.1 * u + depth * n,
+                ]
                 poly = shapely.Polygon(np.round(corners, 3))
                 if inner.contains(poly):
                     regions.append((shapely.orient_polygons(poly), self.count(p.sunlight_lines)))
@@ -362,7 +376,10 @@ class _Builder:
         return regions
 
     def partitions(
-        self, free: shapely.Polygon, edges: list[tuple[np.ndarray, np.ndarray, bool]], sunlight: list[tuple[shapely.Polygon, int]]
+        self,
+        free: shapely.Polygon,
+        edges: list[tuple[np.ndarray, np.ndarray, bool]],
+        sunlight: list[tuple[shapely.Polygon, int]],
     ) -> list[dict[str, Any]]:
         """Glass or mirror walls standing out of a wall into the free space, clear of sunlight."""
         p = self.params
@@ -387,7 +404,9 @@ class _Builder:
                 ):
                     placed.append(line)
                     material = "mirror" if self.rng.random() < p.mirror_share else "glass"
-                    out.append({"id": f"partition-{len(out) + 1}", "points": _coords(line.coords), "material": material})
+                    out.append(
+                        {"id": f"partition-{len(out) + 1}", "points": _coords(line.coords), "material": material}
+                    )
                     break
         return out
 
@@ -420,8 +439,15 @@ class _Builder:
         walls = free.buffer(-p.clearance)
         lines = [shapely.LineString(w["points"]) for w in partitions]
         discs = [shapely.Point(c["center"]).buffer(c["radius"]) for c in pillars]
-        clear = shapely.difference(walls, shapely.union_all([*(g.buffer(p.clearance) for g in (*lines, *discs)),
-                                                              *(poly.buffer(p.clearance) for poly, _ in sunlight)]))
+        clear = shapely.difference(
+            walls,
+            shapely.union_all(
+                [
+                    *(g.buffer(p.clearance) for g in (*lines, *discs)),
+                    *(poly.buffer(p.clearance) for poly, _ in sunlight),
+                ]
+            ),
+        )
         centroids = [poly.centroid for poly, _ in sunlight]
         first = None
         fallback = None

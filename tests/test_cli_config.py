@@ -106,16 +106,22 @@ def test_explain_the_example_sensor_with_two_other_sources(capsys):
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["config", "check", str(HERE / "bad_sum.yaml")],
-         f"evmap: error: {HERE / 'bad_sum.yaml'}: sources.sonar_open_space.table.inside: masses sum to 0.9"),
+        (
+            ["config", "check", str(HERE / "bad_sum.yaml")],
+            f"evmap: error: {HERE / 'bad_sum.yaml'}: sources.sonar_open_space.table.inside: masses sum to 0.9",
+        ),
         (["config", "check", str(HERE / "syntax_error.yaml")], "syntax_error.yaml: line 18, column 13:"),
         (["config", "check", "/nonexistent/c.yaml"], "evmap: error: /nonexistent/c.yaml: cannot read file"),
         (["config", "explain", "--source", "lidar", "--value", "1"], "evmap: error: unknown source 'lidar'"),
-        (["config", "explain", "--source", "lsl_length", "--value", "long"],
-         "evmap: error: source 'lsl_length', feature 'length': expected numbers"),
+        (
+            ["config", "explain", "--source", "lsl_length", "--value", "long"],
+            "evmap: error: source 'lsl_length', feature 'length': expected numbers",
+        ),
         (["config", "explain", "--source", "lsl_length", "--value", "nan"], "expected finite numbers"),
-        (["config", "explain", "--source", "sonar_open_space", "--value", "near"],
-         "unknown category 'near'; the table has 'inside', 'outside', 'partly_inside'"),
+        (
+            ["config", "explain", "--source", "sonar_open_space", "--value", "near"],
+            "unknown category 'near'; the table has 'inside', 'outside', 'partly_inside'",
+        ),
     ],
 )
 def test_bad_input_exits_2_with_a_message_and_no_traceback(capsys, argv, message):
@@ -127,9 +133,7 @@ def test_bad_input_exits_2_with_a_message_and_no_traceback(capsys, argv, message
     assert "Traceback" not in err
 
 
-@pytest.mark.parametrize(
-    "argv", [[], ["config"], ["config", "explain", "--source", "lsl_length"], ["config", "lint"]]
-)
+@pytest.mark.parametrize("argv", [[], ["config"], ["config", "explain", "--source", "lsl_length"], ["config", "lint"]])
 def test_usage_errors_exit_2(capsys, argv):
     code, _, err = run(capsys, *argv)
     assert code == 2
@@ -164,5 +168,10 @@ def test_explain_shows_a_row_in_total_conflict(capsys, tmp_path):
     config.write_text(text)
     code, out, _ = run(capsys, "config", "explain", str(config), "--source", "lsl_length", "--value", "0.3")
     assert code == 0
-    assert "with sonar_open_space (relation = inside): noise 1\n    -> total conflict (K = 1): dempster is undefined" in out
-    assert "with sonar_open_space (relation = outside): real 0.8, noise 0.1, real|noise 0.1\n    -> real 1; K = 0.1" in out
+    assert (
+        "with sonar_open_space (relation = inside): noise 1\n    -> total conflict (K = 1): dempster is undefined"
+        in out
+    )
+    assert (
+        "with sonar_open_space (relation = outside): real 0.8, noise 0.1, real|noise 0.1\n    -> real 1; K = 0.1" in out
+    )

@@ -76,7 +76,9 @@ def test_same_seed_same_numbers(synchronous):
 
 def test_dask_cluster_equals_synchronous(synchronous):
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None) as cluster:
+    with distributed.LocalCluster(
+        n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None
+    ) as cluster:
         result = run_comparison(RULES, 2, 5, scheduler=cluster.scheduler_address, progress=False)
     assert _numbers(result.rows) == _numbers(synchronous.rows)
     assert _numbers(result.summary) == _numbers(synchronous.summary)
@@ -84,7 +86,10 @@ def test_dask_cluster_equals_synchronous(synchronous):
 
 def test_rows_in_world_order_and_summary_means(synchronous):
     assert [(r["world"], r["rule"]) for r in synchronous.rows] == [
-        ("world-0000", "dempster"), ("world-0000", "yager"), ("world-0001", "dempster"), ("world-0001", "yager")
+        ("world-0000", "dempster"),
+        ("world-0000", "yager"),
+        ("world-0001", "dempster"),
+        ("world-0001", "yager"),
     ]
     for line in synchronous.summary:
         mine = [r for r in synchronous.rows if r["rule"] == line["rule"]]
@@ -126,7 +131,7 @@ def test_bayes_cannot_hold_ignorance(open_room):
     theta = 3
     bayes, dempster = open_room["bayes"].map, open_room["dempster"].map
     assert len(bayes.segments) and (bayes.segments.mass[:, theta] == 0).all()
-    assert (bayes.segments.mass[:, 1:].sum(axis=1) == pytest.approx(1.0))
+    assert bayes.segments.mass[:, 1:].sum(axis=1) == pytest.approx(1.0)
     assert (dempster.segments.mass[:, theta] > 0).all()
     for line in bayes.lines(min_belief=0.0):
         assert line.mass.to_dict().get("real|noise", 0.0) == 0.0
@@ -158,8 +163,20 @@ def test_compare_command_writes_the_contract_files(tmp_path, capsys):
     parser = argparse.ArgumentParser(prog="evmap")
     add_compare_parser(parser.add_subparsers())
     out = tmp_path / "cmp"
-    argv = ["compare", "--rules", "dempster,bayes", "--worlds", "2", "--seed", "1", "--out", str(out),
-            "--scheduler", "synchronous", "--quiet"]
+    argv = [
+        "compare",
+        "--rules",
+        "dempster,bayes",
+        "--worlds",
+        "2",
+        "--seed",
+        "1",
+        "--out",
+        str(out),
+        "--scheduler",
+        "synchronous",
+        "--quiet",
+    ]
     args = parser.parse_args(argv)
     assert args.handler(args) == 0
     assert "| dempster |" in capsys.readouterr().out
@@ -168,7 +185,10 @@ def test_compare_command_writes_the_contract_files(tmp_path, capsys):
     assert [r["rule"] for r in summary] == ["dempster", "bayes"]
     assert set(COLUMNS) <= set(summary[0]) and {"world", *COLUMNS} <= set(worlds[0])
     assert [r["world"] for r in worlds] == ["world-0000", "world-0000", "world-0001", "world-0001"]
-    assert "| rule | noise_recall | real_loss | glass_explained | mean_conflict | map_error" in (out / "summary.md").read_text()
+    assert (
+        "| rule | noise_recall | real_loss | glass_explained | mean_conflict | map_error"
+        in (out / "summary.md").read_text()
+    )
     assert sorted(p.name for p in (out / "worlds").iterdir()) == ["world-0000.yaml", "world-0001.yaml"]
     assert (out / "noise_recall_vs_real_loss.png").stat().st_size > 0 and (out / "line_beliefs.png").stat().st_size > 0
     parse_scenario((out / "worlds" / "world-0001.yaml").read_text(), "world-0001.yaml")

@@ -1,12 +1,10 @@
 """combine_batch on (N, 2**n) arrays agrees with combine on objects; batch errors."""
 
-
 import numpy as np
 import pytest
+from engine_fixtures import masses  # noqa: E402
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from engine_fixtures import masses  # noqa: E402
 
 from evidential import RULES, MassError, MassFunction, TotalConflictError, combine, combine_batch  # noqa: E402
 

@@ -17,15 +17,23 @@ def test_frame_is_ordered_and_compares_by_value():
 
 @pytest.mark.parametrize(
     "elements, match",
-    [([], "at least one"), (["a", "a"], "'a' is given twice"), (["a|b"], "'a|b'"), ([""], "''"),
-     ("ab", "string"), ([f"e{i}" for i in range(64)], "at most 63")],
+    [
+        ([], "at least one"),
+        (["a", "a"], "'a' is given twice"),
+        (["a|b"], "'a|b'"),
+        ([""], "''"),
+        ("ab", "string"),
+        ([f"e{i}" for i in range(64)], "at most 63"),
+    ],
 )
 def test_bad_frames(elements, match):
     with pytest.raises(FrameError, match=match):
         Frame(elements)
 
 
-@pytest.mark.parametrize("focal, mask", [("real", 1), ("noise|real", 3), (("noise",), 2), ("", 0), (3, 3), ({"real"}, 1)])
+@pytest.mark.parametrize(
+    "focal, mask", [("real", 1), ("noise|real", 3), (("noise",), 2), ("", 0), (3, 3), ({"real"}, 1)]
+)
 def test_focal_set_spellings(focal, mask):
     assert FRAME.mask(focal) == mask
 
@@ -40,7 +48,9 @@ def test_issue_example_access_and_to_dict():
 
 
 def test_open_world_mass_written_as_empty_string():
-    m = combine(MassFunction(FRAME, {"real": 1.0}), MassFunction(FRAME, {"noise": 0.5, "real|noise": 0.5}), rule="conjunctive")
+    m = combine(
+        MassFunction(FRAME, {"real": 1.0}), MassFunction(FRAME, {"noise": 0.5, "real|noise": 0.5}), rule="conjunctive"
+    )
     assert m.to_dict() == {"": 0.5, "real": 0.5}
     assert MassFunction(FRAME, m.to_dict(), open_world=True).to_dict() == m.to_dict()
 

@@ -4,10 +4,9 @@ import itertools
 
 import numpy as np
 import pytest
+from engine_fixtures import assert_same, sources, vacuous  # noqa: E402
 from hypothesis import given, reject, settings
 from hypothesis import strategies as st
-
-from engine_fixtures import assert_same, sources, vacuous  # noqa: E402
 
 from evidential import RULES, MassFunction, TotalConflictError, combine  # noqa: E402
 

@@ -20,9 +20,11 @@ def reference(m1, m2):
 
 
 def random_mass(frame, rng, k):
-    masks = {int(v) for v in rng.integers(1, 1 << 62, size=k)} if len(frame) == 63 else {
-        int(v) & frame.full for v in rng.integers(1, 1 << 40, size=k)
-    }
+    masks = (
+        {int(v) for v in rng.integers(1, 1 << 62, size=k)}
+        if len(frame) == 63
+        else {int(v) & frame.full for v in rng.integers(1, 1 << 40, size=k)}
+    )
     masks.discard(0)
     w = rng.dirichlet(np.ones(len(masks)))
     return MassFunction(frame, dict(zip(sorted(masks), w.tolist())))

@@ -1,12 +1,10 @@
 """Dense transforms: known values, round trips, and agreement with the object API."""
 
-
 import numpy as np
 import pytest
+from engine_fixtures import masses  # noqa: E402
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from engine_fixtures import masses  # noqa: E402
 
 from evidential import MassError  # noqa: E402
 from evidential import transforms as T  # noqa: E402

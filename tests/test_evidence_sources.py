@@ -181,11 +181,15 @@ def constant_kind():
 
 def test_a_kind_registered_in_python_is_usable_from_yaml(tmp_path, constant_kind):
     # a new kind is one spec model and one builder; YAML then names it as `kind:`
-    text = configs.path("paper.yaml").read_text().replace(
-        "sources:\n",
-        "sources:\n  prior:\n    kind: constant\n    frame: existence\n    feature: length\n"
-        "    masses: {real: 0.5, unknown: 0.5}\n",
-        1,
+    text = (
+        configs.path("paper.yaml")
+        .read_text()
+        .replace(
+            "sources:\n",
+            "sources:\n  prior:\n    kind: constant\n    frame: existence\n    feature: length\n"
+            "    masses: {real: 0.5, unknown: 0.5}\n",
+            1,
+        )
     )
     (tmp_path / "c.yaml").write_text(text)
     cfg = load_config(tmp_path / "c.yaml")

@@ -140,7 +140,9 @@ def test_noise_figure_draws_eliminated_segments_faint(run: Run) -> None:
     noise = store.truth[ids] == "noise"
     assert n_segments(fig, "eliminated-phantom") == int((gone & noise).sum()) > 0
     assert n_segments(fig, "kept-real") == int((~gone & ~noise).sum())
-    assert collection(fig, "eliminated-phantom").get_alpha() < 0.5 and collection(fig, "kept-phantom").get_alpha() is None
+    assert (
+        collection(fig, "eliminated-phantom").get_alpha() < 0.5 and collection(fig, "kept-phantom").get_alpha() is None
+    )
 
 
 def test_merged_map_figure_draws_every_line_and_corner(run: Run) -> None:
@@ -169,7 +171,9 @@ def test_rcd_matching_figure_labels_rcds_and_lists_the_matched_pairs(run: Run) -
     # matched labels are framed green, on both panels
     green = mcolors.to_rgba("#009E73")
     framed = [
-        t for ax in fig.axes for t in ax.texts
+        t
+        for ax in fig.axes
+        for t in ax.texts
         if t.get_gid() == "rcd-label" and np.allclose(t.get_bbox_patch().get_edgecolor()[:3], green[:3])
     ]
     assert len(framed) == 2 * len(ai) > 0

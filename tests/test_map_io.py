@@ -184,7 +184,7 @@ def test_load_refuses_truncated_empty_missing_and_foreign_files(bm, tmp_path):
     path.write_bytes(b"")
     with pytest.raises(MapFileError, match="not valid JSON"):
         BeliefMap.load(path)
-    path.write_text('[1, 2, 3]')
+    path.write_text("[1, 2, 3]")
     with pytest.raises(MapFileError, match="not a map file"):
         BeliefMap.load(path)
     with pytest.raises(MapFileError, match="cannot read file"):

@@ -118,9 +118,9 @@ def _best_by_enumeration(a_dir, a_rng, s_dir, s_rng, params=MatchParams()):
 
 
 # Directions in a 46 deg fan, written with any number of turns, so that many pairs are in the gates.
-rcds = st.lists(
-    st.tuples(st.floats(-0.4, 0.4), st.integers(-1, 1), st.floats(1.0, 1.2)), min_size=0, max_size=5
-).map(lambda xs: (np.array([x + 2 * np.pi * k for x, k, _ in xs]), np.array([r for *_, r in xs])))
+rcds = st.lists(st.tuples(st.floats(-0.4, 0.4), st.integers(-1, 1), st.floats(1.0, 1.2)), min_size=0, max_size=5).map(
+    lambda xs: (np.array([x + 2 * np.pi * k for x, k, _ in xs]), np.array([r for *_, r in xs]))
+)
 
 
 @given(rcds, rcds)

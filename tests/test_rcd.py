@@ -16,8 +16,14 @@ def full_scan(ranges, targets=None, orders=None) -> SonarScan:
     """A closed scan, one reading per degree."""
     r = np.asarray(ranges, float)
     angles = np.radians(np.arange(len(r)) * 360 / len(r))
-    return SonarScan(np.zeros(3), angles, r, np.asarray(targets if targets is not None else [""] * len(r)),
-                     np.asarray(orders if orders is not None else [1] * len(r)), SonarParams())
+    return SonarScan(
+        np.zeros(3),
+        angles,
+        r,
+        np.asarray(targets if targets is not None else [""] * len(r)),
+        np.asarray(orders if orders is not None else [1] * len(r)),
+        SonarParams(),
+    )
 
 
 def profile(*parts) -> np.ndarray:

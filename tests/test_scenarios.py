@@ -285,7 +285,6 @@ def test_relations_are_judged_against_the_union_of_every_poses_open_space(runs):
     assert np.any(after > before)  # and the union decides differently from a pose's own open space
 
 
-
 def test_the_union_of_open_spaces_costs_real_segments_the_single_poses_keep(runs):
     """The contract judges every segment against the union of all poses' open spaces. An RCD's sector
     spans its whole arc at its range, and specular side walls are silent at oblique incidence, so a

@@ -288,8 +288,9 @@ def _transform(surfaces: Surfaces, angle: float, shift) -> Surfaces:
 @given(worlds(), st.floats(-np.pi, np.pi), st.tuples(st.floats(-50, 50), st.floats(-50, 50)))
 def test_moving_world_and_robot_together_changes_nothing(world, angle, shift):
     surfaces, pose = world
-    moved_pose = np.r_[np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]]) @ pose[:2] + shift,
-                       pose[2] + angle]
+    moved_pose = np.r_[
+        np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]]) @ pose[:2] + shift, pose[2] + angle
+    ]
     a = simulate_scan(surfaces, pose, PARAMS)
     b = simulate_scan(_transform(surfaces, angle, np.array(shift)), moved_pose, PARAMS)
     same = np.isclose(a.ranges, b.ranges, atol=1e-6) & (a.target == b.target) & (a.order == b.order)
