@@ -204,13 +204,19 @@ class Config:
         return tuple(self.sources[name] for name in self.stages[stage])
 
     def to_data(self) -> dict[str, Any]:
-        """The config as JSON-able data (with its current rule); :func:`config_from_data` reads it back.
+        """The config as JSON-able data, as it is now; :func:`config_from_data` reads it back.
 
-        >>> cfg = load_config().with_rule("yager")
-        >>> config_from_data(cfg.to_data(), "copy").rule
-        'yager'
+        The rule and the parameter sections are the config's own (changed by
+        :meth:`with_rule` or :func:`dataclasses.replace`); frames, sources and
+        stages are those of the file.
+
+        >>> cfg = dataclasses.replace(load_config().with_rule("yager"), merge=MergeParams(distance=0.08))
+        >>> copy = config_from_data(cfg.to_data(), "copy")
+        >>> copy.rule, copy.merge.distance
+        ('yager', 0.08)
         """
-        return {**self.spec.model_dump(mode="json"), "rule": self.rule}
+        sections = {name: getattr(self, name).model_dump(mode="json") for name in PARAMETER_SECTIONS}
+        return {**self.spec.model_dump(mode="json"), "rule": self.rule, **sections}
 
     def with_rule(self, rule: str) -> Config:
         """A copy of this config that combines with another rule (a name in :data:`evidential.RULES`).
