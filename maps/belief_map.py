@@ -24,9 +24,10 @@ reading, by algorithms written as plain functions of a graph.
 The planner's queries (the names of issue 6) use a belief ``Bel({real})``:
 :meth:`~BeliefMap.lines`, :meth:`~BeliefMap.corners`,
 :meth:`~BeliefMap.unidentified`, :meth:`~BeliefMap.landmarks`,
-:meth:`~BeliefMap.nearest_obstacle`, :meth:`~BeliefMap.is_segment_clear` (a
-shapely STRtree over the obstacles, built lazily per ``min_belief`` and
-dropped when the map changes), the evidential occupancy grid
+:meth:`~BeliefMap.nearest_obstacle`, :meth:`~BeliefMap.is_segment_clear` (from
+the grid of :meth:`~BeliefMap.near` and a cache of the obstacles' beliefs, both
+kept up to date one object at a time: a query right after a change costs what
+is near, not the map), the evidential occupancy grid
 (:mod:`maps.occupancy`) and its ROS export, and lossless :meth:`~BeliefMap.save`
 / :meth:`~BeliefMap.load` of ``map.json`` (``shared/SCENARIO.md``).
 """
@@ -78,7 +79,6 @@ _POINT_KEYS = ("id", "xy", "kind", "mass", "history")
 _LINE_KEYS = ("id", "kind", "mass", "history", "source", "target")
 _NODE_REQUIRED = frozenset(("id", "xy", "kind", "mass"))
 _EDGE_REQUIRED = frozenset(("id", "kind", "mass", "source", "target"))
-_MAX_TREES = 16
 
 NEAR_CELL = 2.0
 """Side (m) of the grid cells of :meth:`BeliefMap.near` and :meth:`BeliefMap.open_space_near`."""
@@ -188,7 +188,9 @@ class BeliefMap:
         self._spaces: list[shapely.Geometry] = []  # pieces whose union is the open space
         self._space_grid = GridIndex(NEAR_CELL)
         self._open_space: shapely.MultiPolygon | None = shapely.MultiPolygon()  # their union; None: not yet made
-        self._grids: tuple[GridIndex, GridIndex] | None = None  # points, lines; made on first use
+        self._grids: tuple[GridIndex, GridIndex, GridIndex] | None = None  # points, lines, targets; on first use
+        self._extent = [math.inf, math.inf, -math.inf, -math.inf]  # with the grids: holds every point they held
+        self._obstacle_bel: dict[str, float] | None = None  # lines, unidentified points: Bel(real); on first use
         self._index: _Index | None = None
         self._config: Config | None = None
         self.segments = SegmentStore.empty(frame)
@@ -274,7 +276,7 @@ class BeliefMap:
         >>> sorted(bm.near((3.5, -0.5, 4.5, 0.5))), sorted(bm.near((3.5, -0.5, 4.5, 0.5), "lines"))
         (['B', 'L1'], ['L1'])
         """
-        points, lines = self._near_grids()
+        points, lines, _ = self._near_grids()
         if what == "points":
             return points.query(bounds)
         if what == "lines":
@@ -304,9 +306,8 @@ class BeliefMap:
             history=_history(history, id),
             **attrs,
         )
-        if self._grids is not None:
-            x, y = self._graph.nodes[id]["xy"]
-            self._grids[0].insert(id, (x, y, x, y))
+        self._grid_point(id)
+        self._track(id)
         self._changed()
 
     def add_line(
@@ -332,6 +333,7 @@ class BeliefMap:
         self._lines[id] = (u, v)
         if self._grids is not None:
             self._grids[1].insert(id, self._line_bounds(id))
+        self._track(id)
         self._changed()
 
     def remove_line(self, id: str) -> None:
@@ -341,6 +343,7 @@ class BeliefMap:
         self._graph.remove_edge(*self._lines.pop(id))
         if self._grids is not None:
             self._grids[1].remove(id)
+        self._untrack(id)
         self._changed()
 
     def remove_point(self, id: str) -> None:
@@ -353,6 +356,9 @@ class BeliefMap:
         self._graph.remove_node(id)
         if self._grids is not None:
             self._grids[0].remove(id)
+            if id in self._grids[2]:
+                self._grids[2].remove(id)
+        self._untrack(id)
         self._changed()
 
     def set_attrs(self, id: str, /, **attrs: Any) -> None:
@@ -375,11 +381,13 @@ class BeliefMap:
         if "history" in attrs:
             checked["history"] = _history(attrs["history"], id)
         data.update(checked)
-        if "xy" in checked and self._grids is not None:  # the point and its lines moved
-            x, y = checked["xy"]
-            self._grids[0].insert(id, (x, y, x, y))
+        if "xy" in checked or "kind" in checked:
+            self._grid_point(id)
+        if "xy" in checked and self._grids is not None:  # the point's lines moved with it
             for _, _, line in self._graph.edges(id, data=True):
                 self._grids[1].insert(line["id"], self._line_bounds(line["id"]))
+        if "mass" in checked or "kind" in checked:
+            self._track(id)
         self._changed()
 
     def fold(self, id: str, mass: MassFunction, record: Mapping[str, Any]) -> MassFunction:
@@ -403,6 +411,7 @@ class BeliefMap:
             {**record, "rule": self.rule, "conflict": conflict(data["mass"], mass), "mass": mass.to_dict()}
         )
         data["mass"] = combined
+        self._track(id)
         self._changed()
         return combined
 
@@ -473,29 +482,67 @@ class BeliefMap:
         Obstacles are the lines and the unidentified objects whose belief
         Bel(real) is at least ``min_belief``; the distance to an unidentified
         object is the distance to its point. ``(inf, None)`` when there is none.
+        Of equally near obstacles, the one with the smallest id.
+
+        The search looks at squares of :data:`NEAR_CELL` cells growing around
+        ``xy`` (3, 5, 9, 17, 33... cells a side) until the nearest obstacle
+        found is nearer than the square's border, or the square holds the
+        whole map: its cost grows with the obstacles near ``xy``, not with the map.
         """
         x, y = _xy(xy, "xy")
-        tree, ids = self._tree(min_belief)
-        if tree is None:
+        level = _belief_level(min_belief)
+        points, lines, targets = self._near_grids()
+        xmin, ymin, xmax, ymax = self._extent
+        if not len(points):
             return math.inf, None
-        index, distance = tree.query_nearest(shapely.Point(x, y), return_distance=True, all_matches=False)
-        return float(distance[0]), ids[index[0]]
+        s = NEAR_CELL
+        i, j = math.floor(x / s), math.floor(y / s)
+        e0, e1, e2, e3 = math.floor(xmin / s), math.floor(ymin / s), math.floor(xmax / s), math.floor(ymax / s)
+        here = np.array([x, y])
+        seen: set[str] = set()
+        best, best_id = math.inf, None
+        k = 1
+        while True:  # the cells i - k .. i + k by j - k .. j + k, as far as the map reaches (queried at their centres)
+            i0, j0, i1, j1 = max(i - k, e0), max(j - k, e1), min(i + k, e2), min(j + k, e3)
+            if i0 <= i1 and j0 <= j1:
+                box = ((i0 + 0.5) * s, (j0 + 0.5) * s, (i1 + 0.5) * s, (j1 + 0.5) * s)
+                found = (lines.query(box) | targets.query(box)) - seen
+                seen |= found
+                ids, p, q = self._obstacles(found, level)
+                if ids:
+                    distance = _point_segment_distances(here, p, q)
+                    n = int(np.argmin(distance))  # the first of the nearest: the smallest id
+                    if distance[n] < best or (distance[n] == best and ids[n] < best_id):
+                        best, best_id = float(distance[n]), ids[n]
+            border = min(x - (i - k) * s, y - (j - k) * s, (i + k + 1) * s - x, (j + k + 1) * s - y)
+            if best < border or (i - k <= e0 and j - k <= e1 and i + k >= e2 and j + k >= e3):
+                return best, best_id
+            k *= 2
 
     def is_segment_clear(
         self, a: Iterable[float], b: Iterable[float], clearance: float = 0.2, min_belief: float = 0.5
     ) -> bool:
         """True if every obstacle is farther than ``clearance`` from the segment ``a``-``b``.
 
-        Obstacles as in :meth:`nearest_obstacle`.
+        Obstacles as in :meth:`nearest_obstacle`; the candidates are those in
+        the :data:`NEAR_CELL` cells of the segment's box grown by ``clearance``.
         """
         a, b = _xy(a, "a"), _xy(b, "b")
         if not (isinstance(clearance, Real) and 0 <= clearance < math.inf):
             raise ValueError(f"clearance must be a finite number >= 0 (m), got {clearance!r}")
-        tree, _ = self._tree(min_belief)
-        if tree is None:
+        level = _belief_level(min_belief)
+        _, lines, targets = self._near_grids()
+        xmin, ymin, xmax, ymax = self._extent
+        box = (
+            max(min(a[0], b[0]) - clearance, xmin),
+            max(min(a[1], b[1]) - clearance, ymin),
+            min(max(a[0], b[0]) + clearance, xmax),
+            min(max(a[1], b[1]) + clearance, ymax),
+        )  # within the map's extent: a huge clearance costs no more than the map
+        if not (box[0] <= box[2] and box[1] <= box[3]):
             return True
-        hits = tree.query(shapely.LineString((a, b)), predicate="dwithin", distance=clearance)
-        return hits.size == 0
+        ids, p, q = self._obstacles(lines.query(box) | targets.query(box), level)
+        return not ids or bool((_segment_distances(np.array(a), np.array(b), p, q) > clearance).all())
 
     def occupancy_masses(
         self, resolution: float = 0.05, params: OccupancyParams | None = None
@@ -629,17 +676,81 @@ class BeliefMap:
             return self._graph.nodes[id]
         raise KeyError(f"{id!r} is neither a point nor a line of the map")
 
-    def _near_grids(self) -> tuple[GridIndex, GridIndex]:
-        """The grids of points and lines, made from the whole map on first use, then kept up to date."""
+    def _near_grids(self) -> tuple[GridIndex, GridIndex, GridIndex]:
+        """The grids of points, lines and unidentified points: made from the whole map on first use, then kept.
+
+        With them :attr:`_extent`, a box (xmin, ymin, xmax, ymax) that holds every
+        point (and so every line): it grows as points are added or moved, never shrinks.
+        """
         if self._grids is None:
-            points, lines = GridIndex(NEAR_CELL), GridIndex(NEAR_CELL)
-            for n, d in self._graph.nodes(data=True):
-                x, y = d["xy"]
+            points, lines, targets = GridIndex(NEAR_CELL), GridIndex(NEAR_CELL), GridIndex(NEAR_CELL)
+            xys = list(self._graph.nodes(data="xy"))
+            for n, (x, y) in xys:
                 points.insert(n, (x, y, x, y))
+            for n, kind in self._graph.nodes(data="kind"):
+                if kind == "unidentified":
+                    x, y = self._graph.nodes[n]["xy"]
+                    targets.insert(n, (x, y, x, y))
             for id in self._lines:
                 lines.insert(id, self._line_bounds(id))
-            self._grids = (points, lines)
+            self._grids = (points, lines, targets)
+            if xys:
+                xy = np.array([xy for _, xy in xys])
+                self._extent = [*xy.min(axis=0).tolist(), *xy.max(axis=0).tolist()]
         return self._grids
+
+    def _grid_point(self, id: str) -> None:
+        """Put the point ``id`` in the grids (if made) at its place, within the extent (new, moved or of a new kind)."""
+        if self._grids is not None:
+            points, _, targets = self._grids
+            data = self._graph.nodes[id]
+            x, y = data["xy"]
+            points.insert(id, (x, y, x, y))
+            if data["kind"] == "unidentified":
+                targets.insert(id, (x, y, x, y))
+            elif id in targets:
+                targets.remove(id)
+            xmin, ymin, xmax, ymax = self._extent
+            self._extent = [min(xmin, x), min(ymin, y), max(xmax, x), max(ymax, y)]
+
+    def _obstacle_beliefs(self) -> dict[str, float]:
+        """Bel(real) of every obstacle (line, unidentified point) by id: made in bulk on first use, then kept."""
+        if self._obstacle_bel is None:
+            g = self._graph
+            targets = [n for n, kind in g.nodes(data="kind") if kind == "unidentified"]
+            masses = [g.adj[u][v]["mass"] for u, v in self._lines.values()] + [g.nodes[n]["mass"] for n in targets]
+            belief, _ = _belief_plausibility(masses, self._frame.mask("real"))
+            self._obstacle_bel = dict(zip([*self._lines, *targets], belief.tolist(), strict=True))
+        return self._obstacle_bel
+
+    def _track(self, id: str) -> None:
+        """Bring the belief cache up to date with the object ``id`` (new, or its mass or kind changed)."""
+        if self._obstacle_bel is not None:
+            data = self._data(id)
+            if id in self._lines or data["kind"] == "unidentified":
+                self._obstacle_bel[id] = data["mass"].belief("real")
+            else:
+                self._obstacle_bel.pop(id, None)
+
+    def _untrack(self, id: str) -> None:
+        """Forget the removed object ``id`` in the belief cache."""
+        if self._obstacle_bel is not None:
+            self._obstacle_bel.pop(id, None)
+
+    def _obstacles(
+        self, ids: Iterable[str], level: float
+    ) -> tuple[list[str], NDArray[np.float64], NDArray[np.float64]]:
+        """Of ``ids``, the obstacles with a belief of at least ``level`` (sorted), and their ends p, q (n, 2).
+
+        An unidentified object is a segment of length zero (p = q).
+        """
+        belief = self._obstacle_beliefs()
+        kept = sorted(id for id in ids if belief.get(id, -1.0) >= level)
+        nodes, lines = self._graph.nodes, self._lines
+        ends = [lines.get(id, (id, id)) for id in kept]
+        p = np.array([nodes[u]["xy"] for u, _ in ends], dtype=float).reshape(-1, 2)
+        q = np.array([nodes[v]["xy"] for _, v in ends], dtype=float).reshape(-1, 2)
+        return kept, p, q
 
     def _line_bounds(self, id: str) -> tuple[float, float, float, float]:
         u, v = self._lines[id]
@@ -660,21 +771,9 @@ class BeliefMap:
         keep = np.flatnonzero((ix.point_kind == kind) & (ix.point_bel >= _belief_level(min_belief)))
         return [ix.point(i) for i in keep]
 
-    def _tree(self, min_belief: float) -> tuple[shapely.STRtree | None, NDArray[np.object_]]:
-        ix = self._current()
-        level = _belief_level(min_belief)
-        found = ix.trees.get(level)
-        if found is None:
-            keep = np.flatnonzero(ix.obstacle_bel >= level)
-            found = (shapely.STRtree(ix.obstacles[keep]) if len(keep) else None, ix.obstacle_ids[keep])
-            if len(ix.trees) >= _MAX_TREES:
-                ix.trees.clear()
-            ix.trees[level] = found
-        return found
-
 
 class _Index:
-    """Arrays of one state of the map, for the queries; rebuilt after every change."""
+    """Arrays of one state of the map, for the listings and the occupancy grid; rebuilt after a change."""
 
     def __init__(self, graph: nx.Graph, lines: dict[str, tuple[str, str]], real: int) -> None:
         xy = dict(graph.nodes(data="xy"))
@@ -693,16 +792,6 @@ class _Index:
         self.point_mass = [m for _, m in graph.nodes(data="mass")]
         self.point_kind = np.array([k for _, k in graph.nodes(data="kind")], dtype=object)
         self.point_bel, self.point_pl = _belief_plausibility(self.point_mass, real)
-        target = np.flatnonzero(self.point_kind == "unidentified")
-        self.obstacles = np.concatenate(
-            [
-                shapely.linestrings(np.stack([self.p, self.q], axis=1)),
-                shapely.points(self.xy[target]),
-            ]
-        )
-        self.obstacle_ids = np.array(self.line_ids + [self.point_ids[i] for i in target], dtype=object)
-        self.obstacle_bel = np.concatenate([self.line_bel, self.point_bel[target]])
-        self.trees: dict[float, tuple[shapely.STRtree | None, NDArray[np.object_]]] = {}
 
     def line(self, i: int) -> Line:
         u, v = self.ends[i]
@@ -729,6 +818,37 @@ def _belief_plausibility(masses: list[MassFunction], a: int) -> tuple[NDArray[np
         np.bincount(owner, weights=np.where(inside, values, 0.0), minlength=n),
         np.bincount(owner, weights=np.where(meets, values, 0.0), minlength=n),
     )
+
+
+def _point_segment_distances(
+    xy: NDArray[np.float64], p: NDArray[np.float64], q: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Distances from points ``xy`` to segments ``p``-``q`` (arrays (..., 2) that broadcast; p = q: a point)."""
+    d = q - p
+    length2 = (d * d).sum(axis=-1)
+    t = np.clip(((xy - p) * d).sum(axis=-1) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
+    gap = p + t[..., None] * d - xy
+    return np.hypot(gap[..., 0], gap[..., 1])
+
+
+def _segment_distances(
+    a: NDArray[np.float64], b: NDArray[np.float64], p: NDArray[np.float64], q: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Distances from the segment ``a``-``b`` (points (2,)) to each segment ``p``-``q`` ((n, 2); p = q: a point).
+
+    Zero where they cross; else the least of the four end-to-segment distances.
+    """
+
+    def side(o: NDArray[np.float64], u: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
+
+    sp, sq, sa, sb = side(a, b, p), side(a, b, q), side(p, q, a), side(p, q, b)
+    cross = (sp * sq <= 0) & (sa * sb <= 0) & ~((sp == 0) & (sq == 0))  # collinear: the ends' distances say it
+    ends = np.minimum(
+        np.minimum(_point_segment_distances(a, p, q), _point_segment_distances(b, p, q)),
+        np.minimum(_point_segment_distances(p, a, b), _point_segment_distances(q, a, b)),
+    )
+    return np.where(cross, 0.0, ends)
 
 
 class _MassCodec:

@@ -5,6 +5,8 @@ import math
 import numpy as np
 import pytest
 import shapely
+from hypothesis import given
+from hypothesis import strategies as st
 
 from evidential import Frame, MassFunction
 from maps import BeliefMap
@@ -125,6 +127,101 @@ def test_queries_follow_changes_of_the_map():
     assert bm.nearest_obstacle((4, 0))[0] == pytest.approx(math.sqrt(8))
     bm.remove_line("L1")
     assert bm.nearest_obstacle((2, 1), min_belief=0.0) == (math.inf, None) and bm.lines(0.0) == []
+
+
+def brute_force(bm: BeliefMap, min_belief: float) -> tuple[list[str], np.ndarray]:
+    """Ids and geometries of the obstacles read straight from the graph (no cache, no index of the map)."""
+    g = bm.graph
+    ids, geoms = [], []
+    for u, v, d in g.edges(data=True):
+        if d["mass"].belief("real") >= min_belief:
+            ids.append(d["id"])
+            geoms.append(shapely.LineString([g.nodes[u]["xy"], g.nodes[v]["xy"]]))
+    for n, d in g.nodes(data=True):
+        if d["kind"] == "unidentified" and d["mass"].belief("real") >= min_belief:
+            ids.append(n)
+            geoms.append(shapely.Point(d["xy"]))
+    return ids, np.array(geoms, dtype=object)
+
+
+def check_queries(bm: BeliefMap, min_belief: float, a: tuple[float, float], b: tuple[float, float], clearance: float):
+    ids, geoms = brute_force(bm, min_belief)
+    for xy in (a, b):
+        distance, found = bm.nearest_obstacle(xy, min_belief)
+        if not ids:
+            assert (distance, found) == (math.inf, None)
+            continue
+        d = shapely.distance(geoms, shapely.Point(xy))
+        assert distance == pytest.approx(d.min(), abs=1e-9)
+        assert d[ids.index(found)] == pytest.approx(d.min(), abs=1e-9)
+        assert found == min(i for i, di in zip(ids, d, strict=True) if di <= d.min() + 1e-9)  # ties: by id
+    d = shapely.distance(geoms, shapely.LineString([a, b])) if ids else np.zeros(0)
+    if not np.any(np.abs(d - clearance) < 1e-9):  # not on the boundary, where rounding decides
+        assert bm.is_segment_clear(a, b, clearance, min_belief) == bool((d > clearance).all())
+
+
+coordinate = st.floats(-4, 24, allow_nan=False).map(lambda v: round(v, 1))  # round: ties and touching segments
+change = st.tuples(st.sampled_from(["line", "target", "remove", "drop", "fold", "move", "kind"]),
+                   st.integers(0, 1000), st.tuples(coordinate, coordinate), st.tuples(coordinate, coordinate),
+                   st.floats(0.01, 0.99))  # fmt: skip
+
+
+@given(
+    seed=st.integers(0, 1000),
+    changes=st.lists(change, max_size=10),
+    min_belief=st.sampled_from([0.0, 0.3, 0.6, 0.9]),
+    clearance=st.sampled_from([0.0, 0.1, 0.5, 2.0, 30.0]),
+)
+def test_queries_right_after_changes_agree_with_brute_force(seed, changes, min_belief, clearance):
+    bm = random_map(seed, n=8)
+    bm.nearest_obstacle((0, 0))  # grids and belief cache made: from now on kept up to date
+    bm.lines(0.0)  # the whole-map index made, to be dropped by the changes
+    for n, (what, pick, a, b, real) in enumerate(changes):
+        lines, points = sorted(bm.graph.edges), sorted(bm.graph.nodes)
+        if what == "line":
+            bm.add_point(f"P{n}", a, "corner", mass(real))
+            bm.add_point(f"Q{n}", b, "endpoint", mass(real))
+            if a != b:
+                bm.add_line(f"N{n}", f"P{n}", f"Q{n}", mass(real))
+        elif what == "target":
+            bm.add_point(f"T{n}", a, "unidentified", mass(real))
+        elif what == "remove" and lines:
+            bm.remove_line(bm.graph.edges[lines[pick % len(lines)]]["id"])
+        elif what == "drop" and (loose := [n for n in points if not bm.graph.degree(n)]):
+            bm.remove_point(loose[pick % len(loose)])
+        elif what == "fold":
+            ids = [bm.graph.edges[e]["id"] for e in lines] + points
+            bm.fold(ids[pick % len(ids)], mass(real), {"pose": n})
+        elif what == "move":
+            bm.set_attrs(points[pick % len(points)], xy=a)
+        elif what == "kind":
+            bm.set_attrs(points[pick % len(points)], kind=["unidentified", "corner"][pick % 2])
+        check_queries(bm, min_belief, a, b, clearance)
+        assert bm._index is None  # the queries rebuilt nothing from the whole map
+    check_queries(bm, min_belief, (1e4, -1e4), (-1e4, 1e4), clearance)  # from far away: found, not searched forever
+
+
+def test_queries_without_obstacles_and_on_a_freshly_loaded_map(tmp_path):
+    bm = BeliefMap(FRAME)
+    assert bm.nearest_obstacle((3, 4), 0.0) == (math.inf, None) and bm.is_segment_clear((0, 0), (1, 1), 1e9)
+    for i in range(50):  # a row of corners, none an obstacle, and one faint target far off
+        bm.add_point(f"C{i}", (i * 3.0, 0.0), "corner", mass(0.9))
+    bm.add_point("U1", (500.0, 500.0), "unidentified", mass(0.1))
+    assert bm.nearest_obstacle((0, 0)) == (math.inf, None) and bm.is_segment_clear((0, 0), (150, 0), 1e9)
+    assert bm.nearest_obstacle((0, 0), 0.1) == (pytest.approx(math.hypot(500, 500)), "U1")
+    assert not bm.is_segment_clear((0, 0), (150, 0), 1e9, 0.1)
+    bm.save(tmp_path / "map.json")
+    loaded = BeliefMap.load(tmp_path / "map.json")
+    assert loaded.nearest_obstacle((499, 500), 0.1) == (1.0, "U1") and loaded._index is None
+    loaded.fold("U1", mass(0.9), {"pose": 1})
+    assert loaded.nearest_obstacle((499, 500)) == (1.0, "U1") and loaded._index is None
+
+
+def test_nearest_obstacle_ties_are_decided_by_id():
+    bm = BeliefMap(FRAME)
+    for name, xy in (("U2", (1.0, 0.0)), ("U3", (-1.0, 0.0)), ("U1", (0.0, -1.0)), ("U0", (8.0, 0.0))):
+        bm.add_point(name, xy, "unidentified", mass(0.9))
+    assert bm.nearest_obstacle((0, 0)) == (1.0, "U1")  # U2 is in the cell of (0, 0), U1 and U3 are not
 
 
 @pytest.mark.parametrize(
