@@ -13,11 +13,14 @@ tensors for (e)), on the CPU with one thread. Prints median times and ratios
 (peer time / our time). A peer that is not installed is skipped with a line
 saying so. Install the peers with ``pip install -e '.[bench]'``.
 
+Each workload runs in a fresh process, ours and its peers together.
+
 Run: ``python benchmarks/bench_engine.py``
 """
 
 from __future__ import annotations
 
+import multiprocessing
 import time
 from collections.abc import Callable
 
@@ -97,22 +100,33 @@ def batch_workload(rng: np.random.Generator, pairs: int = 10_000) -> list[tuple[
     return rows
 
 
+WORKLOADS: dict[str, Callable[[np.random.Generator], list[tuple[str, float]]]] = {
+    "(a) frame 3, full power set": lambda rng: sparse_workload("a", 3, 7, rng),
+    "(b) frame 10, 50 focal sets": lambda rng: sparse_workload("b", 10, 50, rng),
+    "(c) frame 16, 200 focal sets": lambda rng: sparse_workload("c", 16, 200, rng),
+    "(d) frame 20, 1000 focal sets": lambda rng: sparse_workload("d", 20, 1000, rng),
+    "(e) 10,000 pairs on {real, noise}": lambda rng: batch_workload(rng),
+}
+
+
+def measure(index: int) -> list[tuple[str, float]]:
+    """Run workload ``index`` (ours and the peers, in this process)."""
+    title = list(WORKLOADS)[index]
+    return WORKLOADS[title](np.random.default_rng([12345, index]))
+
+
 def main() -> None:
-    rng = np.random.default_rng(12345)
     if pyds is None:
         print("pyds not installed: skipped (pip install py-dempster-shafer==0.7)")
     if tb is None:
         print("torchbelief not installed: skipped (pip install torchbelief==0.3.0 torch==2.13.0)")
-    workloads = {
-        "(a) frame 3, full power set": lambda: sparse_workload("a", 3, 7, rng),
-        "(b) frame 10, 50 focal sets": lambda: sparse_workload("b", 10, 50, rng),
-        "(c) frame 16, 200 focal sets": lambda: sparse_workload("c", 16, 200, rng),
-        "(d) frame 20, 1000 focal sets": lambda: sparse_workload("d", 20, 1000, rng),
-        "(e) 10,000 pairs on {real, noise}": lambda: batch_workload(rng),
-    }
     print(f"{'workload':36} {'implementation':22} {'median':>12} {'peer / ours':>12}")
-    for title, run in workloads.items():
-        rows = run()
+    # each workload in a fresh process (ours and its peers together), so that the memory one
+    # workload leaves behind (frames of 20 elements take hundreds of MB) does not tilt the next
+    spawn = multiprocessing.get_context("spawn")
+    for index, title in enumerate(WORKLOADS):
+        with spawn.Pool(1) as pool:
+            rows = pool.apply(measure, (index,))
         ours = rows[0][1]
         for name, t in rows:
             ratio = "" if name == "evidential" else f"{t / ours:11.1f}x"
