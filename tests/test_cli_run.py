@@ -9,21 +9,14 @@ from pathlib import Path
 
 from evidential import RULES
 from maps.cli import main
+from maps.figures import FIGURE_FILES
 
 SCENARIOS = Path(__file__).parent / "scenarios"
 SMALL = str(SCENARIOS / "pipeline_small.yaml")
 BAD_CONFIG = str(Path(__file__).parent / "configs" / "bad_sum.yaml")
 
 ARTEFACTS = {"report.json", "segments.json", "map.json"}
-FIGURES = {
-    "fig2_sonar_scan_rcds.png",
-    "fig4_lsl_lines.png",
-    "fig5_open_space.png",
-    "fig6a_noise_eliminated.png",
-    "fig6b_merged_corners.png",
-    "fig6c_rcd_matching.png",
-    "fig7_final_map.png",
-}
+FIGURES = set(FIGURE_FILES)  # their names are pinned by tests/test_figures.py
 
 
 def evmap(capsys, *argv: str) -> tuple[int, str, str]:
