@@ -97,7 +97,9 @@ def new_map(config: Config) -> BeliefMap:
     >>> new_map(load_config())
     BeliefMap(points=0, lines=0, frame=['real', 'noise'], rule='dempster')
     """
-    return BeliefMap(config.frame, config.rule, config=config.to_data(), next_id={"L": 1, "C": 1, "E": 1, "U": 1})
+    return BeliefMap(
+        config.frame, config.rule, config=config.to_data(), next_id={"L": 1, "C": 1, "E": 1, "U": 1}, poses=[]
+    )
 
 
 def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOutcome:
@@ -108,6 +110,8 @@ def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOut
             f"are not the map's ({list(bm.frame.elements)}, {bm.rule})"
         )
     store: SegmentStore = bm.segments
+    _check_observation(bm, obs, config)
+    bm.graph.graph["poses"].append(int(obs.pose_index))
     pose = obs.pose
 
     # 1. open space of this pose, united with the map's
@@ -145,6 +149,25 @@ def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOut
     return PoseOutcome(
         obs.pose_index, new, primitive, space, actual, predicted_scan, predicted, (ai, si), categories, unidentified
     )
+
+
+def _check_observation(bm: BeliefMap, obs: Observation, config: Config) -> None:
+    """Refuse, before the map changes, an observation the map cannot fold."""
+    if obs.pose_index in bm.graph.graph["poses"]:
+        raise ValueError(
+            f"pose {obs.pose_index} is already folded into this map: its evidence would count twice "
+            "(give each observation its own pose_index)"
+        )
+    brought = set(obs.features)
+    for source in config.stage_sources("noise_elimination"):
+        if source.feature not in brought | {"relation", "length"}:
+            raise ValueError(
+                f"source {source.name!r} reads feature {source.feature!r}, which the observation does not bring "
+                f"(it brings {sorted(brought)}; the pipeline computes 'relation' and 'length')"
+            )
+    stored = set(bm.segments.features)
+    if len(bm.segments) and brought != stored:
+        raise ValueError(f"the observation brings features {sorted(brought)}, the map's segments have {sorted(stored)}")
 
 
 def map_surfaces(bm: BeliefMap, bounds: tuple[float, float, float, float] | None = None) -> Surfaces:

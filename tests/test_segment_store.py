@@ -65,8 +65,10 @@ def test_a_new_sensor_defined_in_yaml_takes_part_in_noise_elimination():
     obs = observe(World(default_scenario()), 0, base)
     plain = new_map(base)
     plain.update(obs)
-    with pytest.raises(ValueError, match="ir_return"):
-        new_map(infrared).update(obs)  # the new source needs its feature
+    refused = new_map(infrared)
+    with pytest.raises(ValueError, match="'ir_return'"):
+        refused.update(obs)  # the new source needs its feature
+    assert len(refused.segments) == 0 and refused.open_space.is_empty and refused.graph.graph["poses"] == []
     # the IR beam passes through every phantom and returns from every real surface
     ir = np.where(obs.lsl.truth == "noise", "beyond", "echo")
     bm = new_map(infrared)
@@ -84,3 +86,13 @@ def test_observation_features_are_checked():
         Observation(0, obs.sonar, obs.lsl, {"ir_return": ["echo"]})
     with pytest.raises(ValueError, match="computed by the pipeline"):
         Observation(0, obs.sonar, obs.lsl, {"length": np.ones(len(obs.lsl))})
+
+
+def test_an_observation_folds_into_a_map_once():
+    config = load_config()
+    obs = observe(World(default_scenario()), 0, config)
+    bm = new_map(config)
+    bm.update(obs)
+    with pytest.raises(ValueError, match="pose 0 is already folded"):
+        bm.update(obs)
+    assert bm.graph.graph["poses"] == [0]
