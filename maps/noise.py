@@ -18,9 +18,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from evidential import combine_batch
 from sources.config import Config
+from sources.params import MergeParams
 from sources.relation import relation
 
-__all__ = ["NoiseEvidence", "noise_evidence"]
+__all__ = ["COMPUTED", "NoiseEvidence", "noise_evidence", "other_poses"]
+
+COMPUTED = ("relation", "length", "lsl_other_poses")
+"""The features the pipeline computes for the noise-elimination sources (an observation brings any others)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,7 +57,8 @@ def noise_evidence(
     """Judge segments p-q against the sonar open space with the config's noise-elimination sources.
 
     The sources read the features ``relation`` and ``length`` (computed here) and
-    any others given in ``features`` (one value per segment).
+    any others given in ``features`` (one value per segment; the pipeline gives
+    ``lsl_other_poses``, see :func:`other_poses`; 0 when not given).
 
     >>> from sources.config import load_config
     >>> room = shapely.box(0, 0, 4, 4)
@@ -67,6 +72,7 @@ def noise_evidence(
     if "noise" not in frame.elements:
         raise ValueError(f"{config.name}: noise elimination needs an element 'noise' in the frame {frame!r}")
     features = {
+        "lsl_other_poses": np.zeros(len(p), dtype=np.intp),  # seen from one pose, unless told otherwise
         **(features or {}),
         "relation": relation(p, q, open_space, config.noise),
         "length": np.hypot(*(q - p).T),
@@ -74,5 +80,56 @@ def noise_evidence(
     batches = [source.masses(features) for source in config.stage_sources("noise_elimination")]
     fused = np.ascontiguousarray(combine_batch(*batches, rule=config.rule))
     k = combine_batch(*batches, rule="conjunctive")[:, 0] if len(batches) > 1 else np.zeros(len(p))
+    again = np.flatnonzero(np.asarray(features["lsl_other_poses"]) > 0)
+    repeat = config.stage_sources("repeated_observation")
+    if len(again) and repeat:  # evidence of repeated observations, folded in where there is some
+        picked = {name: np.asarray(values)[again] for name, values in features.items()}
+        fused[again] = combine_batch(fused[again], *(s.masses(picked) for s in repeat), rule=config.rule)
     eliminated = fused[:, frame.mask("noise")] > config.noise.threshold
     return NoiseEvidence(features["relation"], features["length"], fused, np.ascontiguousarray(k), eliminated)
+
+
+def other_poses(
+    p: NDArray[np.float64],
+    q: NDArray[np.float64],
+    pose: NDArray[np.intp],
+    cp: NDArray[np.float64],
+    cq: NDArray[np.float64],
+    cpose: NDArray[np.intp],
+    params: MergeParams,
+) -> NDArray[np.intp]:
+    """For each segment p-q, how many other poses saw an LSL segment on it (repeated observation).
+
+    A candidate cp-cq from another pose lies on a segment when their directions
+    differ by at most ``params.angle_deg``, both its ends are within
+    ``params.distance`` of the segment's line, and the two overlap along it or
+    leave a gap of at most ``params.gap`` (the merging tolerances). A real wall
+    is seen again from the next pose; a sunlight phantom, drawn anew for every
+    pose, hardly ever is.
+
+    >>> wall = np.array([[0.0, 0.0]]), np.array([[1.0, 0.0]]), np.array([0])
+    >>> seen = np.array([[0.5, 0.01], [0.5, 0.0], [3.0, 0.0]]), np.array([[1.5, 0.01], [0.5, 1.0], [4.0, 0.0]])
+    >>> other_poses(*wall, *seen, np.array([1, 2, 3]), MergeParams()).tolist()
+    [1]
+    """
+    if not len(p) or not len(cp):
+        return np.zeros(len(p), dtype=np.intp)
+    d = q - p
+    length = np.hypot(d[:, 0], d[:, 1])
+    u = d / length[:, None]  # (N, 2)
+    normal = np.column_stack([-u[:, 1], u[:, 0]])
+    cd = cq - cp
+    cu = cd / np.hypot(cd[:, 0], cd[:, 1])[:, None]  # (M, 2)
+    parallel = np.abs(u @ cu.T) >= np.cos(np.radians(params.angle_deg)) - 1e-12  # (N, M)
+    off_p = np.abs(np.einsum("nmk,nk->nm", cp[None] - p[:, None], normal))
+    off_q = np.abs(np.einsum("nmk,nk->nm", cq[None] - p[:, None], normal))
+    along_p = np.einsum("nmk,nk->nm", cp[None] - p[:, None], u)
+    along_q = np.einsum("nmk,nk->nm", cq[None] - p[:, None], u)
+    lo, hi = np.minimum(along_p, along_q), np.maximum(along_p, along_q)
+    gap = np.maximum(lo - length[:, None], -hi)  # > 0: apart along the line
+    on = parallel & (off_p <= params.distance + 1e-9) & (off_q <= params.distance + 1e-9) & (gap <= params.gap + 1e-9)
+    on &= cpose[None, :] != pose[:, None]
+    counts = np.zeros(len(p), dtype=np.intp)
+    for i in np.flatnonzero(on.any(axis=1)):
+        counts[i] = len(np.unique(cpose[on[i]]))
+    return counts

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from maps.noise import COMPUTED
 from sources.config import Config
 from sources.lsl import LslSegments, observe_lsl
 from sources.sonar import SonarScan, simulate_scan
@@ -37,7 +38,7 @@ class Observation:
     features : further per-segment features for the config's noise-elimination
         sources, name -> one value per LSL segment (a new sensor's reading of
         each segment, say ``{"ir_return": [...]}``); the pipeline computes
-        ``relation`` and ``length`` itself.
+        :data:`maps.noise.COMPUTED` itself.
     """
 
     pose_index: int
@@ -49,7 +50,7 @@ class Observation:
         if not isinstance(self.pose_index, int | np.integer) or self.pose_index < 0:
             raise ValueError(f"pose_index must be an integer >= 0, got {self.pose_index!r}")
         for name, values in self.features.items():
-            if name in ("relation", "length"):
+            if name in COMPUTED:
                 raise ValueError(f"feature {name!r} is computed by the pipeline; an observation cannot bring it")
             if np.shape(values) != (len(self.lsl),):
                 raise ValueError(

@@ -44,7 +44,7 @@ from maps.belief_map import BeliefMap
 from maps.corners import find_corners
 from maps.matching import match_rcds
 from maps.merging import Merged, merge_segments
-from maps.noise import noise_evidence
+from maps.noise import COMPUTED, noise_evidence, other_poses
 from maps.observation import Observation
 from maps.segments import SegmentStore
 from sources.config import Config
@@ -160,10 +160,10 @@ def _check_observation(bm: BeliefMap, obs: Observation, config: Config) -> None:
         )
     brought = set(obs.features)
     for source in config.stage_sources("noise_elimination"):
-        if source.feature not in brought | {"relation", "length"}:
+        if source.feature not in brought | set(COMPUTED):
             raise ValueError(
                 f"source {source.name!r} reads feature {source.feature!r}, which the observation does not bring "
-                f"(it brings {sorted(brought)}; the pipeline computes 'relation' and 'length')"
+                f"(it brings {sorted(brought)}; the pipeline computes {', '.join(COMPUTED)})"
             )
     stored = set(bm.segments.features)
     if len(bm.segments) and brought != stored:
@@ -203,8 +203,14 @@ def _judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
     if not len(ids):
         return
     ends = np.concatenate([store.p[ids], store.q[ids]])
-    space = bm.open_space_near((*ends.min(axis=0), *ends.max(axis=0)))
-    features = {name: column[ids] for name, column in store.features.items()}
+    lo, hi = ends.min(axis=0), ends.max(axis=0)
+    space = bm.open_space_near((*lo, *hi))
+    reach = config.merge.distance + config.merge.gap
+    near = store.near((*(lo - reach), *(hi + reach)))
+    seen = other_poses(
+        store.p[ids], store.q[ids], store.pose[ids], store.p[near], store.q[near], store.pose[near], config.merge
+    )
+    features = {**{name: column[ids] for name, column in store.features.items()}, "lsl_other_poses": seen}
     ev = noise_evidence(store.p[ids], store.q[ids], space, config, features)
     store.relation[ids] = ev.relation
     store.mass[ids] = ev.fused
@@ -295,6 +301,7 @@ def _new_lines(
     length = np.hypot(*(store.q[pool] - store.p[pool]).T)
     longest = np.array([pool[group][np.argmax(length[group])] for group in merged.groups], dtype=np.intp)
     features = {name: column[longest] for name, column in store.features.items()}
+    features["lsl_other_poses"] = np.array([len(np.unique(store.pose[pool[group]])) - 1 for group in merged.groups])
     ends = np.concatenate([store.p[pool], store.q[pool]])
     space = bm.open_space_near((*ends.min(axis=0), *ends.max(axis=0)))
     base = noise_evidence(merged.p, merged.q, space, config, features)

@@ -88,8 +88,10 @@ MAX_SOURCES = 64
 MAX_STAGE_SOURCES = 64
 """Most sources combined by one stage."""
 
-STAGES: tuple[str, ...] = ("noise_elimination", "reinforcement", "unidentified")
-"""The stages of the pipeline that combine evidence sources, in the paper's order."""
+STAGES: tuple[str, ...] = ("noise_elimination", "repeated_observation", "reinforcement", "unidentified")
+"""The stages of the pipeline that combine evidence sources, in the paper's order
+(``repeated_observation``, optional, is folded into a segment's noise-elimination
+mass only when other poses saw it: the paper's future work)."""
 
 PARAMETER_SECTIONS: tuple[str, ...] = (
     "sensors",
@@ -127,6 +129,7 @@ class StagesSpec(_Section):
     """The sources each stage combines (names under ``sources``)."""
 
     noise_elimination: list[Name] = Field(min_length=1, max_length=MAX_STAGE_SOURCES)
+    repeated_observation: list[Name] = Field(default_factory=list, max_length=MAX_STAGE_SOURCES)
     reinforcement: list[Name] = Field(min_length=1, max_length=MAX_STAGE_SOURCES)
     unidentified: list[Name] = Field(min_length=1, max_length=MAX_STAGE_SOURCES)
 

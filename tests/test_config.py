@@ -298,7 +298,7 @@ def test_loading_never_half_applies(tmp_path):
     before = load_config()
     with pytest.raises(InputError, match="stages.unidentified\\[0\\]"):
         load_config(write(tmp_path, data))
-    assert set(before.sources) == {"sonar_open_space", "lsl_length", "sonar_match", "sonar_only"}
+    assert set(before.sources) == {"sonar_open_space", "lsl_length", "lsl_repeat", "sonar_match", "sonar_only"}
 
 
 # ---- absurd sizes -------------------------------------------------------------------------------
