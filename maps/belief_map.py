@@ -186,7 +186,7 @@ class BeliefMap:
         )
         self._lines: dict[str, tuple[str, str]] = {}
         self._spaces: list[shapely.Geometry] = []  # pieces whose union is the open space
-        self._space_grid = GridIndex(NEAR_CELL)
+        self._space_grid: GridIndex | None = None  # their boxes; made on first use, then kept
         self._open_space: shapely.MultiPolygon | None = shapely.MultiPolygon()  # their union; None: not yet made
         self._grids: tuple[GridIndex, GridIndex, GridIndex] | None = None  # points, lines, targets; on first use
         self._extent = [math.inf, math.inf, -math.inf, -math.inf]  # with the grids: holds every point they held
@@ -236,11 +236,11 @@ class BeliefMap:
     @open_space.setter
     def open_space(self, geometry: shapely.Geometry | None) -> None:
         geometry = _as_multipolygon(geometry)
-        self._spaces = []
-        self._space_grid = GridIndex(NEAR_CELL)
-        self.add_open_space(geometry)
+        self._spaces = list(geometry.geoms)
+        self._space_grid = None
         self._graph.graph["open_space"] = _geojson(geometry)
         self._open_space = geometry
+        self._changed()
 
     def add_open_space(self, geometry: shapely.Geometry) -> None:
         """Unite a (Multi)Polygon, one observation's open space say, with the map's open space.
@@ -249,7 +249,8 @@ class BeliefMap:
         """
         geometry = _as_multipolygon(geometry)
         for piece in geometry.geoms:
-            self._space_grid.insert(str(len(self._spaces)), piece.bounds)
+            if self._space_grid is not None:
+                self._space_grid.insert(str(len(self._spaces)), piece.bounds)
             self._spaces.append(piece)
         self._open_space = None
         self._changed()
@@ -259,6 +260,10 @@ class BeliefMap:
 
         Equal to :attr:`open_space` inside the box; it costs what the box holds, not the whole map.
         """
+        if self._space_grid is None:
+            self._space_grid = GridIndex(NEAR_CELL)
+            for k, piece in enumerate(self._spaces):
+                self._space_grid.insert(str(k), piece.bounds)
         pieces = [self._spaces[int(k)] for k in self._space_grid.query(bounds)]
         return shapely.union_all(pieces) if pieces else shapely.MultiPolygon()
 
