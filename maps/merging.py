@@ -52,7 +52,7 @@ from scipy.sparse.csgraph import connected_components
 
 from sources.params import MergeParams
 
-__all__ = ["Merged", "check_segments", "merge_segments"]
+__all__ = ["Merged", "check_segments", "merge_segments", "related_pairs"]
 
 # Slack on every tolerance test, so that a value exactly at the tolerance
 # (5 cm, 10 deg) passes despite rounding.
@@ -133,7 +133,7 @@ def merge_segments(p: ArrayLike, q: ArrayLike, params: MergeParams | None = None
     labels = np.arange(len(p))  # current line of each input segment
     lp, lq = p, q
     while len(p):
-        a, b, cost = _related_pairs(lp, lq, params)
+        a, b, cost = related_pairs(lp, lq, params)
         if a.size == 0:
             break
         new = _group_lines(p, q, labels, len(lp), a, b, cost, params)
@@ -158,10 +158,14 @@ def _members(labels: NDArray[np.intp]) -> list[NDArray[np.intp]]:
     return [order[lo:hi] for lo, hi in zip(bounds[:-1], bounds[1:])]
 
 
-def _related_pairs(
+def related_pairs(
     p: NDArray[np.float64], q: NDArray[np.float64], params: MergeParams
 ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
-    """Pairs (a < b) of related lines, and the cost of merging each pair."""
+    """Pairs (a < b) of related lines (see the module doc), and the cost of merging each pair.
+
+    >>> related_pairs(np.array([[0.0, 0.0], [1.02, 0.01]]), np.array([[1.0, 0.0], [2.0, 0.0]]), MergeParams())[:2]
+    (array([0]), array([1]))
+    """
     reach = np.hypot(params.gap, params.distance) + _EPS
     lines = shapely.linestrings(np.stack([p, q], axis=1))
     a, b = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=reach)

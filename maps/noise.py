@@ -17,6 +17,7 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from evidential import combine_batch
+from maps.merging import related_pairs
 from sources.config import Config
 from sources.params import MergeParams
 from sources.relation import relation
@@ -100,11 +101,10 @@ def other_poses(
 ) -> NDArray[np.intp]:
     """For each segment p-q, how many other poses saw an LSL segment on it (repeated observation).
 
-    A candidate cp-cq from another pose lies on a segment when their directions
-    differ by at most ``params.angle_deg``, both its ends are within
-    ``params.distance`` of the segment's line, and the two overlap along it or
-    leave a gap of at most ``params.gap`` (the merging tolerances). A real wall
-    is seen again from the next pose; a sunlight phantom, drawn anew for every
+    A candidate cp-cq from another pose lies on a segment when the two are
+    related as merging relates lines (:func:`maps.merging.related_pairs`:
+    directions, offsets and gap within the merging tolerances). A real wall is
+    seen again from the next pose; a sunlight phantom, drawn anew for every
     pose, hardly ever is.
 
     >>> wall = np.array([[0.0, 0.0]]), np.array([[1.0, 0.0]]), np.array([0])
@@ -112,24 +112,12 @@ def other_poses(
     >>> other_poses(*wall, *seen, np.array([1, 2, 3]), MergeParams()).tolist()
     [1]
     """
-    if not len(p) or not len(cp):
-        return np.zeros(len(p), dtype=np.intp)
-    d = q - p
-    length = np.hypot(d[:, 0], d[:, 1])
-    u = d / length[:, None]  # (N, 2)
-    normal = np.column_stack([-u[:, 1], u[:, 0]])
-    cd = cq - cp
-    cu = cd / np.hypot(cd[:, 0], cd[:, 1])[:, None]  # (M, 2)
-    parallel = np.abs(u @ cu.T) >= np.cos(np.radians(params.angle_deg)) - 1e-12  # (N, M)
-    off_p = np.abs(np.einsum("nmk,nk->nm", cp[None] - p[:, None], normal))
-    off_q = np.abs(np.einsum("nmk,nk->nm", cq[None] - p[:, None], normal))
-    along_p = np.einsum("nmk,nk->nm", cp[None] - p[:, None], u)
-    along_q = np.einsum("nmk,nk->nm", cq[None] - p[:, None], u)
-    lo, hi = np.minimum(along_p, along_q), np.maximum(along_p, along_q)
-    gap = np.maximum(lo - length[:, None], -hi)  # > 0: apart along the line
-    on = parallel & (off_p <= params.distance + 1e-9) & (off_q <= params.distance + 1e-9) & (gap <= params.gap + 1e-9)
-    on &= cpose[None, :] != pose[:, None]
-    counts = np.zeros(len(p), dtype=np.intp)
-    for i in np.flatnonzero(on.any(axis=1)):
-        counts[i] = len(np.unique(cpose[on[i]]))
-    return counts
+    n = len(p)
+    if not n or not len(cp):
+        return np.zeros(n, dtype=np.intp)
+    a, b, _ = related_pairs(np.concatenate([p, cp]), np.concatenate([q, cq]), params)
+    across = (a < n) != (b < n)  # one judged segment, one candidate
+    i, j = np.where(a < n, a, b)[across], np.where(a < n, b, a)[across] - n
+    other = cpose[j] != pose[i]
+    seen = np.unique(np.column_stack([i[other], cpose[j[other]]]), axis=0)
+    return np.bincount(seen[:, 0], minlength=n).astype(np.intp)
