@@ -129,12 +129,18 @@ def combine_batch(*batches: ArrayLike, rule: str | RuleFunction = "dempster") ->
     arrays = [first] + [_batch(i, b, (first.shape[1], first.shape[0])) for i, b in enumerate(batches[1:], 1)]
     n = first.shape[0].bit_length() - 1
     result = _resolve(rule)([_support(a) for a in arrays], n)
-    if result.masks.size == 1 << n and all(result.masses is not a for a in arrays):
-        return result.masses.T
-    return to_dense(result, n).T
+    out = result.masses if result.masks.size == 1 << n else to_dense(result, n)
+    if any(np.may_share_memory(out, a) for a in arrays):  # a rule that returned a source as it is
+        out = out.copy()
+    return out.T
 
 
 def _support(dense: NDArray[np.float64]) -> Stack:
-    """The stack of a dense (2**n, N) batch without the sets of mass 0 in every row."""
-    used = dense.any(axis=1)
-    return full(dense) if used.all() else Stack(np.flatnonzero(used), dense[used])
+    """The stack of a dense (2**n, N) batch without the sets of mass 0 in every row
+    (a view of ``dense`` where the remaining sets are consecutive)."""
+    used = np.flatnonzero(dense.any(axis=1))
+    if used.size == dense.shape[0]:
+        return full(dense)
+    if used[-1] - used[0] + 1 == used.size:
+        return Stack(used, dense[used[0] : used[-1] + 1])
+    return Stack(used, dense[used])

@@ -121,26 +121,33 @@ def _normalize(sources: Sequence[Stack], n: int) -> Stack:
     """Dempster's rule: m(A) = m∩(A) / sum of m∩(B) over B ≠ ∅, ∅ excluded.
 
     Normalises by the sum of the non-empty conjunctive masses, not by 1 - K, so a
-    near-total conflict keeps full relative precision.
+    near-total conflict keeps full relative precision. After the Möbius strategy
+    the result is all 2**n sets, ∅ with mass 0, normalised in place.
     """
     c, dense = _conjunctive(sources, n)
     if c.masks[0] != 0:
         return c
-    m = c.masses[1:]
+    k = c.masses[0].copy()
+    m = c.masses if dense else c.masses[1:]
+    if dense:
+        m[0] = 0.0
     z = m.sum(axis=0)
     if dense and z.min() < NEAR_TOTAL_CONFLICT:  # Möbius round-off matters: redo these exactly
         rows = np.flatnonzero(z < NEAR_TOTAL_CONFLICT)
         exact = _fold([Stack(s.masks, s.masses[:, rows]) for s in sources], n, np.bitwise_and)
-        m = m.copy()
-        m[:, rows] = to_dense(exact, n)[1:]
+        m[:, rows] = to_dense(exact, n)
+        k[rows], m[0, rows] = m[0, rows], 0.0
         z[rows] = m[:, rows].sum(axis=0)
     if not z.min() > 0:
         row = int(np.argmin(z))
-        k = float(c.masses[0, row])
         where = f" (batch row {row})" if z.size > 1 else ""
         raise TotalConflictError(
-            f"total conflict{where}: K = {k!r}, the sources share no focal element; Dempster's rule is undefined"
+            f"total conflict{where}: K = {float(k[row])!r}, the sources share no focal element; "
+            "Dempster's rule is undefined"
         )
+    if dense:
+        m /= z
+        return c
     return Stack(c.masks[1:], m / z)
 
 

@@ -29,6 +29,23 @@ _ROW_LOOP_MAX = 256
 """Largest number of weight rows a batch aggregates row by row."""
 
 
+def _keep_temporaries_on_the_heap() -> None:
+    """Free one 16 MB block, so that glibc's malloc keeps later blocks up to that size on its heap.
+
+    Until it has freed a large block, glibc maps every block over 128 kB afresh
+    and unmaps it when it is freed (its dynamic mmap threshold), so each medium
+    temporary of a kernel (a 200 x 200 combination makes several of 300-500 kB)
+    is paid again in page faults: five times the arithmetic on this project's
+    machine. The cost is up to 32 MB of freed memory kept for reuse. No effect
+    where the threshold was set by hand (``MALLOC_MMAP_THRESHOLD_``) or with
+    another malloc.
+    """
+    np.empty(1 << 21)
+
+
+_keep_temporaries_on_the_heap()
+
+
 class Stack(NamedTuple):
     """N mass functions over one frame, sharing the candidate focal sets ``masks``."""
 

@@ -95,3 +95,32 @@ def test_batch_errors(bad, match):
 def test_batch_shapes_must_match():
     with pytest.raises(MassError, match="like batch 0"):
         combine_batch(np.array([[0, 0, 0, 1.0]]), np.array([[0, 0, 0, 1.0]] * 2))
+
+
+def test_total_conflict_in_a_large_batch_names_the_row_and_k():
+    # 5,000 rows: the Möbius strategy, whose near-conflict rows are recomputed exactly
+    rng = np.random.default_rng(5)
+    M1 = np.column_stack([np.zeros(5000), rng.dirichlet(np.ones(3), 5000)])
+    M2 = np.column_stack([np.zeros(5000), rng.dirichlet(np.ones(3), 5000)])
+    M1[4321], M2[4321] = [0, 1.0, 0, 0], [0, 0, 1.0, 0]
+    with pytest.raises(TotalConflictError, match=r"row 4321\).*K = 1\.0"):
+        combine_batch(M1, M2)
+    M2[4321] = [0, 1e-12, 1 - 1e-12, 0]
+    out = combine_batch(M1, M2)
+    np.testing.assert_allclose(out[4321], [0, 1.0, 0, 0], rtol=0, atol=0)
+    np.testing.assert_allclose(out[:, 0], 0.0, atol=0)
+
+
+@pytest.mark.parametrize("name", sorted(RULES))
+@pytest.mark.parametrize("order", ["C", "F"])
+def test_batch_result_never_shares_memory_with_the_inputs(name, order):
+    rng = np.random.default_rng(6)
+    inputs = [np.asarray(np.column_stack([np.zeros(3000), rng.dirichlet(np.ones(3), 3000)]), order=order)]
+    inputs.append(np.array(inputs[0][::-1], order=order))
+    kept = [a.copy() for a in inputs]
+    for sources in (inputs[:1], inputs):
+        out = combine_batch(*sources, rule=name)
+        assert not any(np.may_share_memory(out, a) for a in inputs)
+        out[...] = -1.0
+    for a, b in zip(inputs, kept):
+        np.testing.assert_array_equal(a, b)
