@@ -11,8 +11,9 @@ Peers: py-dempster-shafer (pyds, dict of frozensets) and torchbelief (dense
 tensors for frames up to 16, ``SparseMass`` for sparse workloads, batched dense
 tensors for (e)), on the CPU with one thread. Prints median times and the
 ratio peer time / our time (of the medians, then the lowest and highest ratio
-of the rounds; see :func:`measured` for how the rounds are laid out). A peer that is not installed is skipped with a line
-saying so. Install the peers with ``pip install -e '.[bench]'``.
+of the rounds; :func:`measured` says how the rounds are laid out). A peer that
+is not installed is skipped with a line saying so. Install the peers with
+``pip install -e '.[bench]'``.
 
 Each workload runs in a fresh process, ours and its peers together; ours is
 also timed alone in a fresh process that loads no peer (the "alone" row), as a
