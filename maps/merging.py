@@ -159,30 +159,58 @@ def _members(labels: NDArray[np.intp]) -> list[NDArray[np.intp]]:
 
 
 def related_pairs(
-    p: NDArray[np.float64], q: NDArray[np.float64], params: MergeParams
+    p: NDArray[np.float64],
+    q: NDArray[np.float64],
+    params: MergeParams,
+    others: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
-    """Pairs (a < b) of related lines (see the module doc), and the cost of merging each pair.
+    """Pairs of related lines (see the module doc), and the cost of merging each pair.
+
+    The pairs (a, b), a < b, among the lines p-q; or, given ``others`` (their
+    ends op, oq), the pairs of a line p[a]-q[a] and a line op[b]-oq[b].
 
     >>> related_pairs(np.array([[0.0, 0.0], [1.02, 0.01]]), np.array([[1.0, 0.0], [2.0, 0.0]]), MergeParams())[:2]
     (array([0]), array([1]))
+    >>> far = np.array([[5.0, 0.0]]), np.array([[6.0, 0.0]])
+    >>> related_pairs(np.array([[0.0, 0.0]]), np.array([[1.0, 0.0]]), MergeParams(), far)[:2]
+    (array([], dtype=int64), array([], dtype=int64))
     """
     reach = np.hypot(params.gap, params.distance) + _EPS
     lines = shapely.linestrings(np.stack([p, q], axis=1))
-    a, b = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=reach)
-    keep = a < b
-    a, b = a[keep], b[keep]
-    d = q - p
-    length = np.hypot(d[:, 0], d[:, 1])
-    u = d / length[:, None]
-    swap = length[b] > length[a]
-    long_, short = np.where(swap, b, a), np.where(swap, a, b)
-    ul, pl = u[long_], p[long_]
-    rel_p, rel_q = p[short] - pl, q[short] - pl
+    if others is None:
+        a, b = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=reach)
+        keep = a < b
+        return _relation(p, q, p, q, a[keep], b[keep], params)
+    op, oq = others
+    a, b = shapely.STRtree(shapely.linestrings(np.stack([op, oq], axis=1))).query(
+        lines, predicate="dwithin", distance=reach
+    )
+    return _relation(p, q, op, oq, a, b, params)
+
+
+def _relation(
+    p: NDArray[np.float64],
+    q: NDArray[np.float64],
+    op: NDArray[np.float64],
+    oq: NDArray[np.float64],
+    a: NDArray[np.intp],
+    b: NDArray[np.intp],
+    params: MergeParams,
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
+    """The candidate pairs (p[a]-q[a], op[b]-oq[b]) that are related, and their costs."""
+    ends = np.stack([p[a], q[a], op[b], oq[b]])  # (4, pairs, 2): each pair's two lines, ends p, q
+    d = ends[[1, 3]] - ends[[0, 2]]
+    length = np.hypot(d[..., 0], d[..., 1])
+    u = d / length[..., None]
+    longer = (length[1] > length[0]).astype(np.intp)  # 0: the first line of the pair, 1: the second
+    pick = np.arange(a.size)
+    ul, pl, ll, us = u[longer, pick], ends[2 * longer, pick], length[longer, pick], u[1 - longer, pick]
+    rel_p, rel_q = ends[2 - 2 * longer, pick] - pl, ends[3 - 2 * longer, pick] - pl
     off = np.maximum(np.abs(_cross(ul, rel_p)), np.abs(_cross(ul, rel_q)))
     tp, tq = _dot(ul, rel_p), _dot(ul, rel_q)  # the shorter's ends along the longer, which spans [0, length]
-    gap = np.maximum.reduce([np.minimum(tp, tq) - length[long_], -np.maximum(tp, tq), np.zeros_like(tp)])
+    gap = np.maximum.reduce([np.minimum(tp, tq) - ll, -np.maximum(tp, tq), np.zeros_like(tp)])
     ok = (
-        (np.abs(_dot(ul, u[short])) >= np.cos(np.radians(params.angle_deg)) - _EPS)
+        (np.abs(_dot(ul, us)) >= np.cos(np.radians(params.angle_deg)) - _EPS)
         & (off <= params.distance + _EPS)
         & (gap <= params.gap + _EPS)
     )

@@ -113,11 +113,13 @@ def other_poses(
     [1]
     """
     n = len(p)
+    poses = np.unique(pose)
+    if poses.size == 1:  # then a candidate from that pose counts for none of the segments
+        keep = cpose != poses[0]
+        cp, cq, cpose = cp[keep], cq[keep], cpose[keep]
     if not n or not len(cp):
         return np.zeros(n, dtype=np.intp)
-    a, b, _ = related_pairs(np.concatenate([p, cp]), np.concatenate([q, cq]), params)
-    across = (a < n) != (b < n)  # one judged segment, one candidate
-    i, j = np.where(a < n, a, b)[across], np.where(a < n, b, a)[across] - n
+    i, j, _ = related_pairs(p, q, params, others=(cp, cq))
     other = cpose[j] != pose[i]
     seen = np.unique(np.column_stack([i[other], cpose[j[other]]]), axis=0)
     return np.bincount(seen[:, 0], minlength=n).astype(np.intp)

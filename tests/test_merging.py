@@ -5,7 +5,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from maps.merging import check_segments, merge_segments
+from maps.merging import check_segments, merge_segments, related_pairs
+from maps.noise import other_poses
 from sources.params import MergeParams
 
 
@@ -211,3 +212,35 @@ def test_merging_does_not_depend_on_input_order(segments, random):
         same = max(np.abs(m1.p[k] - m2.p[j]).max(), np.abs(m1.q[k] - m2.q[j]).max())
         flipped = max(np.abs(m1.p[k] - m2.q[j]).max(), np.abs(m1.q[k] - m2.p[j]).max())
         assert min(same, flipped) <= 1e-9
+
+
+@given(wall_pieces(), st.integers(0, 40))
+def test_related_pairs_between_two_sets_are_the_cross_pairs_of_their_union(segments, split):
+    p, q = segments
+    k = min(split, len(p))
+    a, b, cost = related_pairs(p, q, MergeParams())
+    cross = (a < k) & (b >= k)  # a < b: the first set's line comes first
+    i, j, c = related_pairs(p[:k], q[:k], MergeParams(), others=(p[k:], q[k:]))
+    found = sorted(zip(i.tolist(), j.tolist(), c.tolist()))
+    assert [(x, y) for x, y, _ in found] == sorted(zip(a[cross].tolist(), (b[cross] - k).tolist()))
+    expected = dict(zip(zip(a[cross].tolist(), (b[cross] - k).tolist()), cost[cross].tolist()))
+    assert all(abs(expected[x, y] - z) <= 1e-12 for x, y, z in found)
+
+
+@given(wall_pieces(), st.randoms(use_true_random=False))
+def test_other_poses_counts_the_other_poses_that_saw_a_segment(segments, random):
+    p, q = segments
+    k = len(p)
+    cp, cq = p + 1e-3, q - 1e-3  # every wall piece seen again, and each related to its copy
+    pose = np.array([random.randrange(3) for _ in range(k)])
+    cpose = np.array([random.randrange(3) for _ in range(k)])
+    a, b, _ = related_pairs(np.concatenate([p, cp]), np.concatenate([q, cq]), MergeParams())
+    sets = [set() for _ in range(k)]
+    for x, y in zip(a.tolist(), b.tolist()):
+        if x < k <= y and cpose[y - k] != pose[x]:
+            sets[x].add(cpose[y - k])
+    expected = [len(s) for s in sets]
+    assert any(expected) or not k or (pose == cpose).all()
+    assert other_poses(p, q, pose, cp, cq, cpose, MergeParams()).tolist() == expected
+    one = np.zeros(k, dtype=np.intp)  # one pose judged: its own candidates never count
+    assert not other_poses(p, q, one, cp, cq, one, MergeParams()).any()
