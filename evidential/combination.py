@@ -91,9 +91,8 @@ def _batch(i: int, array: ArrayLike, shape: tuple[int, ...] | None) -> NDArray[n
         col, row = np.argwhere(~(t >= 0))[0]
         raise MassError(f"batch {i}, row {row}: mass of focal set {col} must be finite and >= 0, got {t[col, row]!r}")
     total = t.sum(axis=0)
-    off = np.abs(total - 1.0) > SUM_TOLERANCE
-    if off.any():
-        row = int(np.argmax(off))
+    if not (total.min() >= 1.0 - SUM_TOLERANCE and total.max() <= 1.0 + SUM_TOLERANCE):
+        row = int(np.argmax(np.abs(total - 1.0)))
         raise MassError(f"batch {i}, row {row}: masses must sum to 1 (within {SUM_TOLERANCE}), got {total[row]!r}")
     return t
 
@@ -138,7 +137,7 @@ def combine_batch(*batches: ArrayLike, rule: str | RuleFunction = "dempster") ->
 def _support(dense: NDArray[np.float64]) -> Stack:
     """The stack of a dense (2**n, N) batch without the sets of mass 0 in every row
     (a view of ``dense`` where the remaining sets are consecutive)."""
-    used = np.flatnonzero(dense.any(axis=1))
+    used = np.flatnonzero(dense.max(axis=1) > 0)  # masses are >= 0
     if used.size == dense.shape[0]:
         return full(dense)
     if used[-1] - used[0] + 1 == used.size:

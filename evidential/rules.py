@@ -127,28 +127,25 @@ def _normalize(sources: Sequence[Stack], n: int) -> Stack:
     c, dense = _conjunctive(sources, n)
     if c.masks[0] != 0:
         return c
-    k = c.masses[0].copy()
-    m = c.masses if dense else c.masses[1:]
-    if dense:
-        m[0] = 0.0
-    z = m.sum(axis=0)
+    m = c.masses
+    z = m[1:].sum(axis=0)
     if dense and z.min() < NEAR_TOTAL_CONFLICT:  # Möbius round-off matters: redo these exactly
         rows = np.flatnonzero(z < NEAR_TOTAL_CONFLICT)
         exact = _fold([Stack(s.masks, s.masses[:, rows]) for s in sources], n, np.bitwise_and)
         m[:, rows] = to_dense(exact, n)
-        k[rows], m[0, rows] = m[0, rows], 0.0
-        z[rows] = m[:, rows].sum(axis=0)
+        z[rows] = m[1:, rows].sum(axis=0)
     if not z.min() > 0:
         row = int(np.argmin(z))
         where = f" (batch row {row})" if z.size > 1 else ""
         raise TotalConflictError(
-            f"total conflict{where}: K = {float(k[row])!r}, the sources share no focal element; "
+            f"total conflict{where}: K = {float(m[0, row])!r}, the sources share no focal element; "
             "Dempster's rule is undefined"
         )
     if dense:
+        m[0] = 0.0
         m /= z
         return c
-    return Stack(c.masks[1:], m / z)
+    return Stack(c.masks[1:], m[1:] / z)
 
 
 @register_rule("dempster", properties={"commutative", "associative", "vacuous_identity", "bayes_on_bayesian"})

@@ -148,5 +148,7 @@ def transform_product(sources: list[Stack], n: int, superset: bool) -> NDArray[n
     for s in sources[1:]:
         product *= sweep(to_dense(s, n), superset, inverse=False)
     m = sweep(product, superset, inverse=True)
-    m[m <= 64 * (n + len(sources)) * np.finfo(np.float64).eps] = 0.0
+    small = m <= 64 * (n + len(sources)) * np.finfo(np.float64).eps
+    if small.any():  # the boolean assignment costs more than the test
+        m[small] = 0.0
     return m
