@@ -89,11 +89,15 @@ def _batch(i: int, array: ArrayLike, shape: tuple[int, ...] | None) -> NDArray[n
     t = np.ascontiguousarray(a.T)
     if not t.min() >= 0:
         col, row = np.argwhere(~(t >= 0))[0]
-        raise MassError(f"batch {i}, row {row}: mass of focal set {col} must be finite and >= 0, got {t[col, row]!r}")
+        raise MassError(
+            f"batch {i}, row {row}: mass of focal set {col} must be finite and >= 0, got {float(t[col, row])!r}"
+        )
     total = t.sum(axis=0)
     if not (total.min() >= 1.0 - SUM_TOLERANCE and total.max() <= 1.0 + SUM_TOLERANCE):
         row = int(np.argmax(np.abs(total - 1.0)))
-        raise MassError(f"batch {i}, row {row}: masses must sum to 1 (within {SUM_TOLERANCE}), got {total[row]!r}")
+        raise MassError(
+            f"batch {i}, row {row}: masses must sum to 1 (within {SUM_TOLERANCE}), got {float(total[row])!r}"
+        )
     return t
 
 

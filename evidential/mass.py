@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from itertools import repeat
 from numbers import Real
 
 import numpy as np
@@ -70,23 +71,93 @@ class MassFunction:
             raise MassError(f"masses must sum to 1 (within {SUM_TOLERANCE}), got {total!r} over {{{listing}}}")
         keep = sorted((k, v) for k, (_, v) in found.items() if v > 0)
         self.frame = frame
-        self._stack = Stack(
+        self._stack = _read_only(
             np.array([k for k, _ in keep], dtype=np.int64), np.array([[v] for _, v in keep], dtype=np.float64)
         )
 
     @classmethod
     def from_stack(cls, frame: Frame, stack: Stack, column: int = 0) -> MassFunction:
         """Column ``column`` of a rule's result, trusted as valid (zero masses dropped)."""
-        m = cls.__new__(cls)
-        m.frame = frame
         values = stack.masses[:, column]
         keep = values > 0
-        m._stack = (
-            Stack(stack.masks, stack.masses[:, column : column + 1])
-            if keep.all()
-            else Stack(stack.masks[keep], values[keep][:, None])
-        )
+        if keep.all():
+            return cls._new(frame, _read_only(stack.masks, stack.masses[:, column : column + 1]))
+        return cls._new(frame, _read_only(stack.masks[keep], values[keep][:, None]))
+
+    @classmethod
+    def _new(cls, frame: Frame, stack: Stack) -> MassFunction:
+        m = cls.__new__(cls)
+        m.frame = frame
+        m._stack = stack
         return m
+
+    @classmethod
+    def from_rows(
+        cls, frame: Frame, masks: ArrayLike, rows: ArrayLike, *, open_world: bool = False
+    ) -> list[MassFunction]:
+        """One mass function per row of ``rows`` (N, K), over the K focal sets ``masks``.
+
+        Checked in bulk as the constructor checks one mass function, and many
+        times faster than N constructor calls: for many mass functions over the
+        same focal sets, such as the rows of a :func:`~evidential.combine_batch`
+        result (``masks = range(2**n)``) or a file's records. Zero masses are
+        dropped.
+
+        Parameters
+        ----------
+        frame : Frame
+        masks : array_like of int, or sequence of focal sets
+            K distinct focal sets: bitmasks, or anything :meth:`Frame.mask` reads.
+        rows : array_like, shape (N, K)
+            Row ``j`` holds the masses of mass function ``j``.
+        open_world : bool
+            Allow mass on the empty set.
+
+        Raises
+        ------
+        MassError
+            Naming the row and the focal set: a negative, NaN or infinite mass,
+            a row whose sum is off 1 by more than 1e-9, mass on the empty set of
+            a closed world, a focal set given twice, or a shape that does not fit.
+
+        Examples
+        --------
+        >>> frame = Frame(["a", "b"])
+        >>> [m.to_dict() for m in MassFunction.from_rows(frame, ["a", "a|b"], [[0.25, 0.75], [1.0, 0.0]])]
+        [{'a': 0.25, 'a|b': 0.75}, {'a': 1.0}]
+        """
+        if not isinstance(frame, Frame):
+            raise FrameError(f"frame must be a Frame, got {type(frame).__name__}")
+        keys = _masks(frame, masks)
+        try:
+            values = np.array(rows, dtype=np.float64)  # a copy: the mass functions keep views of it
+        except (TypeError, ValueError) as exc:
+            raise MassError(f"rows must be an (N, {keys.size}) array of numbers: {exc}") from None
+        if values.ndim != 2 or values.shape[1] != keys.size:
+            raise MassError(f"rows must have shape (N, {keys.size}) for {keys.size} focal sets, got {values.shape}")
+        label = frame.label
+        if values.size and not (values.min() >= 0 and values.max() < np.inf):
+            j, k = np.argwhere(~((values >= 0) & (values < np.inf)))[0]
+            value = float(values[j, k])
+            raise MassError(
+                f"row {j}: mass of focal set {label(int(keys[k]))!r} must be a finite number >= 0, got {value!r}"
+            )
+        if not open_world and (keys == 0).any() and values[:, keys == 0].max(initial=0.0) > 0:
+            j = int(np.argmax(values[:, np.flatnonzero(keys == 0)[0]]))
+            raise MassError(f"row {j}: mass on the empty set '' needs open_world=True")
+        total = values.sum(axis=1)
+        off = np.abs(total - 1.0) > SUM_TOLERANCE
+        if off.any():
+            j = int(np.argmax(off))
+            raise MassError(f"row {j}: masses must sum to 1 (within {SUM_TOLERANCE}), got {float(total[j])!r}")
+        order = np.argsort(keys)
+        keys, values = keys[order], values[:, order]
+        keys.flags.writeable = False
+        values.flags.writeable = False
+        positive = (values > 0).all(axis=1).tolist()
+        stacks = map(Stack, repeat(keys), values[:, :, None])  # row j as the (K, 1) masses of a Stack
+        new, checked = cls._new, cls.from_stack
+        return [new(frame, s) if ok else checked(frame, s) for s, ok in zip(stacks, positive, strict=True)]
 
     @classmethod
     def from_dict(cls, frame: Frame, masses: Mapping[Focal, float], *, open_world: bool = False) -> MassFunction:
@@ -116,17 +187,13 @@ class MassFunction:
 
     @property
     def masks(self) -> NDArray[np.int64]:
-        """The focal sets as bitmasks, increasing (a read-only view)."""
-        view = self._stack.masks.view()
-        view.flags.writeable = False
-        return view
+        """The focal sets as bitmasks, increasing (read-only)."""
+        return self._stack.masks
 
     @property
     def masses(self) -> NDArray[np.float64]:
-        """The masses of :attr:`masks` (a read-only view)."""
-        view = self._stack.masses[:, 0]
-        view.flags.writeable = False
-        return view
+        """The masses of :attr:`masks` (read-only)."""
+        return self._stack.masses[:, 0]
 
     def __len__(self) -> int:
         return self._stack.masks.size
@@ -266,3 +333,26 @@ class MassFunction:
         """
         p = self.pignistic()
         return max(p, key=p.__getitem__)
+
+
+def _read_only(masks: NDArray[np.int64], masses: NDArray[np.float64]) -> Stack:
+    """A stack of read-only views of the arrays (a mass function's arrays never change)."""
+    masks, masses = masks.view(), masses.view()
+    masks.flags.writeable = False
+    masses.flags.writeable = False
+    return Stack(masks, masses)
+
+
+def _masks(frame: Frame, focal_sets: ArrayLike) -> NDArray[np.int64]:
+    """The distinct focal sets as an int64 array of bitmasks (unsorted), checked against the frame."""
+    if isinstance(focal_sets, np.ndarray) and focal_sets.dtype.kind in "iu":
+        keys = focal_sets.astype(np.int64).ravel()
+        outside = (keys < 0) | (keys > frame.full)
+        if outside.any():
+            raise FrameError(f"focal set {int(keys[np.argmax(outside)])} is not a subset of {frame!r}")
+    else:
+        keys = np.array([frame.mask(int(f) if isinstance(f, np.integer) else f) for f in focal_sets], dtype=np.int64)
+    uniq, counts = np.unique(keys, return_counts=True)
+    if (counts > 1).any():
+        raise MassError(f"focal set {frame.label(int(uniq[np.argmax(counts > 1)]))!r} is given twice")
+    return keys

@@ -275,7 +275,7 @@ def cautious(sources: Sequence[Stack], n: int) -> Stack:
             row = int(np.argmin(q[-1]))
             where = f", batch row {row}" if q.shape[1] > 1 else ""
             raise MassError(
-                f"the cautious rule needs non-dogmatic sources: source {i}{where} has m(Θ) = {q[-1, row]!r}"
+                f"the cautious rule needs non-dogmatic sources: source {i}{where} has m(Θ) = {float(q[-1, row])!r}"
             )
         lw = -sweep(np.log(q), superset=True, inverse=True)  # ln w(A) for A ≠ Θ
         log_w = lw if log_w is None else np.minimum(log_w, lw)

@@ -51,8 +51,7 @@ import orjson
 import shapely
 from numpy.typing import NDArray
 
-from evidential import RULES, Frame, MassFunction, Stack, combine, conflict
-from evidential.mass import SUM_TOLERANCE
+from evidential import RULES, Frame, MassFunction, combine, conflict
 from maps.occupancy import OccupancyParams, evidential_grid, occupancy_from_masses, write_atomic, write_ros_map
 from maps.segments import SegmentStore
 from maps.spatial import GridIndex
@@ -857,11 +856,7 @@ def _segment_distances(
 
 
 class _MassCodec:
-    """Mass functions to ``{FOCAL: float}`` and back, in bulk (a map file holds hundreds of thousands).
-
-    :func:`_stacks` and :func:`_mass_functions` are the two places that know
-    how a :class:`~evidential.MassFunction` holds its arrays.
-    """
+    """Mass functions to ``{FOCAL: float}`` and back, in bulk (a map file holds hundreds of thousands)."""
 
     def __init__(self, frame: Frame) -> None:
         self.frame = frame
@@ -870,20 +865,21 @@ class _MassCodec:
         """``{FOCAL: float}`` of each mass function, as :meth:`MassFunction.to_dict` writes it."""
         labels_of: dict[bytes, list[str]] = {}
         out = []
-        for masks, values in _stacks(masses):
+        for m in masses:
+            masks = m.masks
             labels = labels_of.get(key := masks.tobytes())
             if labels is None:
                 labels = labels_of[key] = [self.frame.label(k) for k in masks.tolist()]
-            out.append(dict(zip(labels, values.ravel().tolist())))  # (zip's strict=True would cost a third)
+            out.append(dict(zip(labels, m.masses.tolist())))  # (zip's strict=True would cost a third)
         return out
 
     def decode(self, dicts: list[dict[Any, Any]]) -> list[MassFunction]:
         """The mass functions of the dicts; a bad one raises ``_BadMass(index, engine's message)``.
 
-        Dicts with the same focal sets are checked as one array, whose good rows
-        become mass functions; a dict that fails the array check (a zero mass,
-        say) goes through the engine's own constructor, which either accepts it
-        or says what is wrong.
+        Dicts with the same focal sets are made as one array
+        (:meth:`MassFunction.from_rows`); where that fails, each dict of the
+        group goes through the engine's own constructor, which either accepts
+        it or says what is wrong.
         """
         if not dicts:
             return []
@@ -904,50 +900,15 @@ class _MassCodec:
         return out
 
     def _group(self, keys: tuple[Any, ...], dicts: list[dict[Any, Any]]) -> list[MassFunction | None]:
-        """The mass functions of dicts that all have the focal sets ``keys``; None where the array check fails."""
-        try:
-            masks = np.array([self.frame.mask(k) for k in keys], dtype=np.int64)
-        except (ValueError, TypeError):
-            return [None] * len(dicts)
+        """The mass functions of dicts that all have the focal sets ``keys``; None for each if one is bad."""
         flat = list(chain.from_iterable(map(dict.values, dicts)))
-        if len(np.unique(masks)) != len(keys) or not set(map(type, flat)) <= {float, int}:  # not bool, not str
+        if not set(map(type, flat)) <= {float, int}:  # not bool, not str: the constructor says what is wrong
             return [None] * len(dicts)
         try:
             values = np.array(flat, dtype=np.float64).reshape(len(dicts), len(keys))
-        except OverflowError:
+            return list(MassFunction.from_rows(self.frame, keys, values, open_world=True))
+        except (ValueError, TypeError, OverflowError):
             return [None] * len(dicts)
-        order = np.argsort(masks)
-        values = values[:, order]
-        good = (values > 0).all(axis=1) & np.isfinite(values).all(axis=1)  # the engine drops zero masses
-        good &= np.abs(values.sum(axis=1) - 1.0) <= SUM_TOLERANCE
-        return _mass_functions(self.frame, masks[order], values, good)
-
-
-def _stacks(masses: list[MassFunction]) -> list[Stack]:
-    """The stack (masks, (K, 1) masses) that each mass function holds, as the engine's own ``combine`` reads it."""
-    return [m._stack for m in masses]
-
-
-def _mass_functions(
-    frame: Frame, masks: NDArray[np.int64], values: NDArray[np.float64], good: NDArray[np.bool_]
-) -> list[MassFunction | None]:
-    """A mass function over the focal sets ``masks`` (K,, increasing) for each good row of ``values`` (N, K).
-
-    What :meth:`MassFunction.from_stack` makes of one column, without its
-    per-column check for zero masses, which the caller did for all the rows:
-    the good rows have only positive masses summing to 1. None for the others.
-    """
-    stacks = map(Stack, repeat(masks), values.reshape(*values.shape, 1))  # row j as the (K, 1) masses of a Stack
-    new = MassFunction.__new__
-    out: list[MassFunction | None] = []
-    for ok, stack in zip(good.tolist(), stacks, strict=True):
-        m = None
-        if ok:
-            m = new(MassFunction)
-            m.frame = frame
-            m._stack = stack
-        out.append(m)
-    return out
 
 
 class _BadMass(Exception):

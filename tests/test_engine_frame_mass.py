@@ -2,9 +2,13 @@
 
 import math
 
+import numpy as np
 import pytest
+from engine_fixtures import masses
+from hypothesis import given
+from hypothesis import strategies as st
 
-from evidential import Frame, FrameError, MassError, MassFunction, combine
+from evidential import Frame, FrameError, MassError, MassFunction, combine, combine_batch
 
 FRAME = Frame(["real", "noise"])
 
@@ -109,3 +113,49 @@ def test_dense_round_trip_and_zero_masses_dropped():
     assert MassFunction.from_dense(FRAME, m.dense()).to_dict() == m.to_dict()
     with pytest.raises(MassError, match="shape"):
         MassFunction.from_dense(FRAME, [1.0, 0.0])
+
+
+@given(st.integers(1, 4).flatmap(lambda n: st.lists(masses(n), min_size=1, max_size=5)))
+def test_from_rows_makes_what_the_constructor_makes(ms):
+    frame = ms[0].frame
+    rows = np.array([m.dense() for m in ms])
+    for made, m in zip(MassFunction.from_rows(frame, np.arange(1 << len(frame)), rows), ms, strict=True):
+        assert made.to_dict() == m.to_dict() and made.masks.tolist() == m.masks.tolist()
+
+
+def test_from_rows_takes_a_combine_batch_result_and_any_spelling_of_focal_sets():
+    M1 = np.array([[0, 0.8, 0.1, 0.1], [0, 0.5, 0.5, 0]])
+    M2 = np.array([[0, 0.3, 0, 0.7], [0, 0, 0, 1.0]])
+    rows = MassFunction.from_rows(FRAME, np.arange(4), combine_batch(M1, M2))
+    objects = [combine(*(MassFunction.from_dense(FRAME, M[j]) for M in (M1, M2))) for j in range(2)]
+    assert [m.to_dict() for m in rows] == [m.to_dict() for m in objects]
+    spelled = MassFunction.from_rows(FRAME, ["real|noise", ("real",), np.int64(2)], [[0.5, 0.25, 0.25]])
+    assert spelled[0].to_dict() == {"real": 0.25, "noise": 0.25, "real|noise": 0.5}
+
+
+def test_mass_function_arrays_are_read_only():
+    for m in (MassFunction(FRAME, {"real": 1.0}), MassFunction.from_rows(FRAME, [1], [[1.0]])[0]):
+        for array in (m.masks, m.masses):
+            with pytest.raises(ValueError, match="read-only"):
+                array[0] = 0
+
+
+@pytest.mark.parametrize(
+    "masks, rows, match",
+    [
+        ([1, 3], [[0.5, 0.5], [1.5, -0.5]], r"row 1: mass of focal set 'real\|noise' must be .* got -0\.5"),
+        ([1, 3], [[0.5, 0.5], [np.nan, 1.0]], "row 1: mass of focal set 'real' must be a finite number >= 0, got nan"),
+        ([1, 3], [[np.inf, 0.0]], "row 0: .* got inf"),
+        ([1, 3], [[0.5, 0.5], [0.5, 0.6]], r"row 1: masses must sum to 1 \(within 1e-09\), got 1\.1"),
+        ([0, 1], [[0.0, 1.0], [0.2, 0.8]], "row 1: mass on the empty set '' needs open_world=True"),
+        ([1, "real"], [[0.5, 0.5]], "focal set 'real' is given twice"),
+        ([1, 3], [[0.5, 0.25, 0.25]], r"rows must have shape \(N, 2\) for 2 focal sets, got \(1, 3\)"),
+        ([1, 3], [["a", "b"]], "rows must be an .* array of numbers"),
+        (np.array([1, 4]), [[0.5, 0.5]], "focal set 4 is not a subset of"),
+        (["real", "wall"], [[0.5, 0.5]], "element 'wall' is not in"),
+    ],
+)
+def test_from_rows_errors_name_the_row_and_the_focal_set(masks, rows, match):
+    with pytest.raises(ValueError, match=match):
+        MassFunction.from_rows(FRAME, masks, rows)
+    assert MassFunction.from_rows(FRAME, [0, 1], [[0.2, 0.8]], open_world=True)[0].to_dict() == {"": 0.2, "real": 0.8}
