@@ -19,13 +19,13 @@ from evidential.rules import PROPERTIES, RULES, Rule, register_rule
 from evidential.stack import Stack
 
 __all__ = [
+    "PROPERTIES",
+    "RULES",
     "EvidentialError",
     "Frame",
     "FrameError",
     "MassError",
     "MassFunction",
-    "PROPERTIES",
-    "RULES",
     "Rule",
     "Stack",
     "TotalConflictError",

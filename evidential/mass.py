@@ -48,7 +48,7 @@ class MassFunction:
     {'real': 0.8500000000000001, 'noise': 0.15000000000000002}
     """
 
-    __slots__ = ("frame", "_stack")
+    __slots__ = ("_stack", "frame")
 
     def __init__(self, frame: Frame, masses: Mapping[Focal, float], *, open_world: bool = False) -> None:
         if not isinstance(frame, Frame):

@@ -40,10 +40,10 @@ from evidential import Frame
 
 __all__ = [
     "KINDS",
+    "MASS_TOLERANCE",
     "MAX_BREAK_POINTS",
     "MAX_CATEGORIES",
     "MAX_TABLE_CELLS",
-    "MASS_TOLERANCE",
     "BoundSource",
     "EvidenceSource",
     "FocalResolver",

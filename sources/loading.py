@@ -15,7 +15,7 @@ from typing import Any, TypeVar
 import pydantic
 import yaml
 
-__all__ = ["InputError", "MAX_FILE_BYTES", "key_path", "load_model", "read_yaml", "validate"]
+__all__ = ["MAX_FILE_BYTES", "InputError", "key_path", "load_model", "read_yaml", "validate"]
 
 MAX_FILE_BYTES = 5_000_000
 """Largest YAML file accepted, in bytes."""
@@ -63,7 +63,7 @@ def read_yaml(text: str, name: str) -> Any:
     if len(text.encode()) > MAX_FILE_BYTES:
         raise InputError(f"{name}: file is larger than the limit of {MAX_FILE_BYTES} bytes")
     try:
-        return yaml.load(text, Loader=_StrictSafeLoader)  # noqa: S506 - a SafeLoader subclass
+        return yaml.load(text, Loader=_StrictSafeLoader)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "unknown position"

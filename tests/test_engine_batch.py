@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
-from engine_fixtures import masses  # noqa: E402
+from engine_fixtures import masses
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evidential import RULES, MassError, MassFunction, TotalConflictError, combine, combine_batch  # noqa: E402
+from evidential import RULES, MassError, MassFunction, TotalConflictError, combine, combine_batch
 
 
 @st.composite

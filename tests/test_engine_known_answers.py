@@ -1,9 +1,9 @@
 """Known answers from the literature, to 1e-9, for every rule."""
 
 import pytest
-from engine_fixtures import total_conflict  # noqa: E402
+from engine_fixtures import total_conflict
 
-from evidential import Frame, MassError, MassFunction, TotalConflictError, combine, conflict  # noqa: E402
+from evidential import Frame, MassError, MassFunction, TotalConflictError, combine, conflict
 
 ZADEH = Frame(["M", "C", "T"])  # meningitis, concussion, tumour
 

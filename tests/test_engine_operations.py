@@ -1,11 +1,11 @@
 """Discounting, conditioning, Jousselme distance and decisions."""
 
 import pytest
-from engine_fixtures import PAPER, assert_same, masses, vacuous  # noqa: E402
+from engine_fixtures import PAPER, assert_same, masses, vacuous
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evidential import Frame, FrameError, MassError, MassFunction, TotalConflictError, combine, jousselme_distance  # noqa: E402
+from evidential import Frame, FrameError, MassError, MassFunction, TotalConflictError, combine, jousselme_distance
 
 any_mass = st.integers(1, 4).flatmap(masses)
 

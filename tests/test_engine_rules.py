@@ -4,11 +4,11 @@ import itertools
 
 import numpy as np
 import pytest
-from engine_fixtures import assert_same, sources, vacuous  # noqa: E402
+from engine_fixtures import assert_same, sources, vacuous
 from hypothesis import given, reject, settings
 from hypothesis import strategies as st
 
-from evidential import RULES, MassFunction, TotalConflictError, combine  # noqa: E402
+from evidential import RULES, MassFunction, TotalConflictError, combine
 
 ALL = sorted(RULES)
 SUITE = settings(max_examples=25)

@@ -2,12 +2,12 @@
 
 import numpy as np
 import pytest
-from engine_fixtures import masses  # noqa: E402
+from engine_fixtures import masses
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evidential import MassError  # noqa: E402
-from evidential import transforms as T  # noqa: E402
+from evidential import MassError
+from evidential import transforms as T
 
 any_mass = st.integers(1, 4).flatmap(masses)
 
