@@ -31,7 +31,7 @@ def main() -> None:
     rules = len(DEFAULT_RULES)
 
     result, wall = timed(worlds=args.worlds, seed=args.seed, progress=False)
-    peer, peer_wall = timed(worlds=args.peer_worlds, seed=args.seed, scheduler="synchronous", progress=False)
+    _peer, peer_wall = timed(worlds=args.peer_worlds, seed=args.seed, scheduler="synchronous", progress=False)
 
     print(
         f"{args.worlds} worlds x {rules} rules on a local Dask cluster: {wall:.1f} s wall "

@@ -72,11 +72,11 @@ def main() -> None:
         p, q = rooms(n)
         merged = merge_segments(p, q)
         rows = [
-            ("merge", len(merged.p), median_seconds(lambda: merge_segments(p, q))),
+            ("merge", len(merged.p), median_seconds(lambda p=p, q=q: merge_segments(p, q))),
             (
                 "corners",
                 len(find_corners(merged.p, merged.q).xy),
-                median_seconds(lambda: find_corners(merged.p, merged.q, viewpoint=(1.0, 1.0))),
+                median_seconds(lambda merged=merged: find_corners(merged.p, merged.q, viewpoint=(1.0, 1.0))),
             ),
         ]
         for stage, count, seconds in rows:
@@ -93,7 +93,9 @@ def main() -> None:
         a_rng, s_rng = rng.uniform(0.5, 5, (2, n))
         s_dir = a_dir + rng.normal(0, 0.05, n)
         s_rng = a_rng + rng.normal(0, 0.02, n)
-        seconds = median_seconds(lambda: match_rcds(a_dir, a_rng, s_dir, s_rng))
+        seconds = median_seconds(
+            lambda a_dir=a_dir, a_rng=a_rng, s_dir=s_dir, s_rng=s_rng: match_rcds(a_dir, a_rng, s_dir, s_rng)
+        )
         base.setdefault("match", seconds)
         count = len(match_rcds(a_dir, a_rng, s_dir, s_rng)[0])
         print(f"{'match':<10}{n:>7}{count:>8}{seconds:>11.5f}{seconds / base['match']:>8.1f}")

@@ -36,7 +36,7 @@ DOOR = (1.5, 2.4)  # the door's span along each room's south wall (m from its co
 
 def building(rooms: int) -> tuple[np.ndarray, np.ndarray]:
     """Wall segments p, q of a square grid of about ``rooms`` rooms (three segments a room)."""
-    n = max(1, int(round(np.sqrt(rooms))))
+    n = max(1, round(float(np.sqrt(rooms))))
     p, q = [], []
     for i in range(n + 1):
         for j in range(n + 1):
@@ -53,7 +53,7 @@ def building(rooms: int) -> tuple[np.ndarray, np.ndarray]:
 def building_map(p: np.ndarray, q: np.ndarray, config) -> BeliefMap:
     """A belief map holding the walls p-q as lines, their corners, and every room's open floor."""
     bm = new_map(config)
-    n = int(round(p[:, 0].max() / ROOM))
+    n = round(float(p[:, 0].max() / ROOM))
     for i in range(n):
         for j in range(n):
             bm.add_open_space(shapely.box(i * ROOM + 0.2, j * ROOM + 0.2, (i + 1) * ROOM - 0.2, (j + 1) * ROOM - 0.2))
@@ -127,7 +127,7 @@ def main() -> None:
         start = time.perf_counter()
         bm = building_map(p, q, config)
         built = time.perf_counter() - start
-        n = int(round(p[:, 0].max() / ROOM))
+        n = round(float(p[:, 0].max() / ROOM))
         times = []
         for k in range(6):  # the first update also makes the map's spatial grid, once
             obs = observation(p, q, (n // 2 + k, n // 2), config, pose_index=1 + k)

@@ -1177,7 +1177,7 @@ def _as_multipolygon(geometry: shapely.Geometry | None) -> shapely.MultiPolygon:
     if isinstance(geometry, shapely.Polygon):
         geometry = shapely.MultiPolygon([geometry])
     if not isinstance(geometry, shapely.MultiPolygon):
-        raise ValueError(f"open_space must be a Polygon or MultiPolygon, got a {geometry.geom_type}")
+        raise ValueError(f"open_space must be a Polygon or MultiPolygon, got a {geometry.geom_type}")  # noqa: TRY004
     if not geometry.is_valid:
         raise ValueError(f"open_space is not a valid geometry: {shapely.is_valid_reason(geometry)}")
     return geometry

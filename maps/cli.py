@@ -135,7 +135,7 @@ def config_check(args: argparse.Namespace) -> int:
         out.append(f"frame {name}{role}: {', '.join(frame.elements)}")
         for alias, written in cfg.aliases[name].items():
             out.append(f"  alias {alias} = {_label(frame, frame.mask(written))}")
-    for name, source in cfg.sources.items():
+    for name in cfg.sources:
         out += ["", *_describe_source(cfg, name)]
     out += ["", f"stages (combined by {cfg.rule}):"]
     out += [f"  {stage}: {', '.join(names)}" for stage, names in cfg.stages.items()]
@@ -158,8 +158,10 @@ def config_explain(args: argparse.Namespace) -> int:
     source = cfg.sources[args.source]
     m = source.masses({source.feature: [args.value]})
     out = [
-        f"{source.name} ({getattr(source, 'kind', type(source).__name__)} on {source.feature!r}), "
-        f"{source.feature} = {args.value}:",
+        (
+            f"{source.name} ({getattr(source, 'kind', type(source).__name__)} on {source.feature!r}), "
+            f"{source.feature} = {args.value}:"
+        ),
         f"  {_masses(source.frame, m[0])}",
     ]
     stages = [stage for stage, names in cfg.stages.items() if source.name in names]

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 import shapely
@@ -155,7 +156,7 @@ def _members(labels: NDArray[np.intp]) -> list[NDArray[np.intp]]:
     """Sorted indices of each label's members (labels 0..k-1, each used)."""
     order = np.argsort(labels, kind="stable")
     bounds = np.r_[0, np.cumsum(np.bincount(labels))].tolist() if labels.size else [0]
-    return [order[lo:hi] for lo, hi in zip(bounds[:-1], bounds[1:])]
+    return [order[lo:hi] for lo, hi in pairwise(bounds)]
 
 
 def related_pairs(

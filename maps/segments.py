@@ -153,7 +153,7 @@ class SegmentStore:
         """
         store = cls(frame)
         if not isinstance(data, dict):
-            raise ValueError("segments: expected an object of columns")
+            raise ValueError("segments: expected an object of columns")  # noqa: TRY004
         columns: dict[str, NDArray[Any]] = {}
         for name in COLUMNS:
             if name not in data:
@@ -172,7 +172,7 @@ class SegmentStore:
             columns[name] = column
         features = data.get("features", {})
         if not isinstance(features, dict):
-            raise ValueError("segments.features: expected an object of columns")
+            raise ValueError("segments.features: expected an object of columns")  # noqa: TRY004
         for name, values in features.items():
             columns[name] = np.array(values)
         lengths = {name: len(c) for name, c in columns.items()}

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from itertools import pairwise
 from typing import Any
 
 import numpy as np
@@ -287,7 +288,7 @@ class _Builder:
         out = []
         for ring in (free.exterior, *free.interiors):
             xy = np.asarray(ring.coords)
-            for a, b in zip(xy[:-1], xy[1:]):
+            for a, b in pairwise(xy):
                 mid, n = (a + b) / 2, _normal(a, b)
                 out.append((a, b, not free.contains(shapely.Point(mid - reach * n))))
         return out

@@ -11,15 +11,16 @@ from maps.matching import match_rcds
 from sources.params import MatchParams
 
 deg = np.radians
+DEFAULT_MATCH = MatchParams()
 
 
-def _cost(a_dir, a_rng, s_dir, s_rng, ai, si, params=MatchParams()):
+def _cost(a_dir, a_rng, s_dir, s_rng, ai, si, params=DEFAULT_MATCH):
     dtheta = np.angle(np.exp(1j * (np.asarray(a_dir)[ai] - np.asarray(s_dir)[si])))
     drange = np.asarray(a_rng)[ai] - np.asarray(s_rng)[si]
     return float(np.sum((dtheta / deg(params.angle_scale_deg)) ** 2 + (drange / params.range_scale) ** 2))
 
 
-def _greedy(a_dir, a_rng, s_dir, s_rng, params=MatchParams()):
+def _greedy(a_dir, a_rng, s_dir, s_rng, params=DEFAULT_MATCH):
     """First-come matching: cheapest admissible pair first, then the next among the rest."""
     pairs = []
     for i, j in itertools.product(range(len(a_dir)), range(len(s_dir))):
@@ -57,7 +58,7 @@ def test_directions_are_compared_round_the_circle():
     ],
 )
 def test_gates(dtheta, drange, matched):
-    ai, si = match_rcds(deg([30.0]), [2.0], deg([30.0 + dtheta]), [2.0 + drange])
+    ai, _si = match_rcds(deg([30.0]), [2.0], deg([30.0 + dtheta]), [2.0 + drange])
     assert (ai.size == 1) is matched
 
 
@@ -96,7 +97,7 @@ def test_bad_inputs_are_refused(args, message):
         match_rcds(*args)
 
 
-def _best_by_enumeration(a_dir, a_rng, s_dir, s_rng, params=MatchParams()):
+def _best_by_enumeration(a_dir, a_rng, s_dir, s_rng, params=DEFAULT_MATCH):
     """Most admissible pairs, then least cost, over every one-to-one partial matching."""
     n, m = len(a_dir), len(s_dir)
     admissible = {

@@ -9,6 +9,8 @@ from maps.merging import check_segments, merge_segments, related_pairs
 from maps.noise import other_poses
 from sources.params import MergeParams
 
+DEFAULT_MERGE = MergeParams()
+
 
 def _polar(start, angle_deg, length):
     start = np.asarray(start, dtype=float)
@@ -20,7 +22,7 @@ def _cross(u, v):
     return u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
 
 
-def _within_tolerance(p, q, m, params=MergeParams()):
+def _within_tolerance(p, q, m, params=DEFAULT_MERGE):
     """Every input lies within the merge tolerances of its merged line."""
     u = m.q - m.p
     u /= np.linalg.norm(u, axis=1)[:, None]

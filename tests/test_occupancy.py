@@ -83,12 +83,12 @@ def test_grid_masses_combine_free_and_the_strongest_object_by_the_rule():
         assert m.shape == (14, 14, 4) and origin == (-0.2, -0.2)
         assert np.allclose(m.sum(axis=2), 1)
 
-        def expect(free: bool, occupied: float) -> list:
+        def expect(free: bool, occupied: float, rule=rule) -> list:
             m_free = MassFunction(GRID_FRAME, {"free": 0.7, "free|occupied": 0.3} if free else {"free|occupied": 1})
             m_occ = MassFunction(GRID_FRAME, {"occupied": occupied, "free|occupied": 1 - occupied})
             return combine(m_free, m_occ, rule=rule).dense().tolist()
 
-        def cell(x, y):
+        def cell(x, y, m=m, origin=origin):
             return m[int((y - origin[1]) / RES), int((x - origin[0]) / RES)].tolist()
 
         assert cell(-0.15, -0.15) == [0, 0, 0, 1]  # outside the open space, nothing there

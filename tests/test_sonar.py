@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 import pytest
 import shapely
@@ -232,10 +234,10 @@ def worlds(draw):
     # keep the sensor off the walls and outside the pillars, and segments non-degenerate
     geoms = [shapely.LineString(pts) for _, pts, _ in walls]
     for _, pts, _ in walls:
-        for a, b in zip(pts, pts[1:]):
+        for a, b in pairwise(pts):
             assume(np.hypot(a[0] - b[0], a[1] - b[1]) >= 0.05)
     # no two surfaces overlap: coinciding surfaces leave the first echo to round-off
-    pieces = [shapely.LineString([a, b]) for _, pts, _ in walls for a, b in zip(pts, pts[1:])]
+    pieces = [shapely.LineString([a, b]) for _, pts, _ in walls for a, b in pairwise(pts)]
     assume(all(x.intersection(y.buffer(1e-6)).length < 1e-3 for i, x in enumerate(pieces) for y in pieces[:i]))
     discs = [shapely.Point(c).buffer(r) for _, c, r in cylinders]
     assume(not any(d.intersects(g) for d in discs for g in geoms))
