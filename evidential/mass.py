@@ -143,7 +143,7 @@ class MassFunction:
                 f"row {j}: mass of focal set {label(int(keys[k]))!r} must be a finite number >= 0, got {value!r}"
             )
         if not open_world and (keys == 0).any() and values[:, keys == 0].max(initial=0.0) > 0:
-            j = int(np.argmax(values[:, np.flatnonzero(keys == 0)[0]]))
+            j = int(np.argmax(values[:, np.flatnonzero(keys == 0)[0]] > 0))
             raise MassError(f"row {j}: mass on the empty set '' needs open_world=True")
         total = values.sum(axis=1)
         off = np.abs(total - 1.0) > SUM_TOLERANCE

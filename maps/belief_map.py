@@ -906,7 +906,7 @@ class _MassCodec:
             return [None] * len(dicts)
         try:
             values = np.array(flat, dtype=np.float64).reshape(len(dicts), len(keys))
-            return list(MassFunction.from_rows(self.frame, keys, values, open_world=True))
+            return MassFunction.from_rows(self.frame, keys, values, open_world=True)
         except (ValueError, TypeError, OverflowError):
             return [None] * len(dicts)
 
