@@ -38,7 +38,7 @@ import gc
 import math
 import operator
 import sys
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from itertools import chain, repeat
 from numbers import Real
@@ -899,7 +899,7 @@ class _MassCodec:
                 out[i] = m
         return out
 
-    def _group(self, keys: tuple[Any, ...], dicts: list[dict[Any, Any]]) -> list[MassFunction | None]:
+    def _group(self, keys: tuple[Any, ...], dicts: list[dict[Any, Any]]) -> Sequence[MassFunction | None]:
         """The mass functions of dicts that all have the focal sets ``keys``; None for each if one is bad."""
         flat = list(chain.from_iterable(map(dict.values, dicts)))
         if not set(map(type, flat)) <= {float, int}:  # not bool, not str: the constructor says what is wrong
