@@ -15,6 +15,10 @@ of the rounds; :func:`measured` says how the rounds are laid out). A peer that
 is not installed is skipped with a line saying so. Install the peers with
 ``pip install -e '.[bench]'``.
 
+For frames of up to 16 elements, the row "numpy floor (kernel)" times the
+engine's pairwise sums alone (intersections, products, one ``bincount``, one
+scan), without objects or normalisation: what numpy cannot go below.
+
 Each workload runs in a fresh process, ours and its peers together; ours is
 also timed alone in a fresh process that loads no peer (the "alone" row), as a
 user of evidential runs it: loading torch changes how the process allocates
@@ -112,6 +116,14 @@ def sparse_workload(n: int, k: int, rng: np.random.Generator) -> list[Row]:
     m1 = MassFunction(frame, dict(zip(a.tolist(), wa.tolist())))
     m2 = MassFunction(frame, dict(zip(b.tolist(), wb.tolist())))
     impls: list[Impl] = [("evidential", lambda: combine(m1, m2, rule="dempster"))]
+    if n <= 16:
+
+        def bare_kernel() -> np.ndarray:
+            """The engine's pairwise sums alone (no objects, no normalisation): numpy's floor here."""
+            table = np.bincount(np.bitwise_and.outer(a, b).ravel(), np.multiply.outer(wa, wb).ravel(), 1 << n)
+            return np.flatnonzero(table != 0)
+
+        impls.append(("numpy floor (kernel)", bare_kernel))
     slow: list[Impl] = []
     if tb is not None:
         s1 = tb.SparseMass(torch.from_numpy(a), torch.from_numpy(wa), n)
@@ -184,8 +196,7 @@ def main() -> None:
     print(f"{'workload':36} {'implementation':22} {'median':>12} {'peer / ours':>12} {'rounds':>14}")
     for index, title in enumerate(WORKLOADS):
         rows = in_fresh_process(index, peers=True)
-        (alone,) = in_fresh_process(index, peers=False)
-        alone = alone._replace(name="evidential alone")
+        alone = in_fresh_process(index, peers=False)[0]._replace(name="evidential alone")
         for row in [rows[0], alone, *rows[1:]]:
             ratio = spread = ""
             if row is not rows[0] and row is not alone:
