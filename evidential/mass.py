@@ -351,7 +351,7 @@ def _masks(frame: Frame, focal_sets: ArrayLike) -> NDArray[np.int64]:
         if outside.any():
             raise FrameError(f"focal set {int(keys[np.argmax(outside)])} is not a subset of {frame!r}")
     else:
-        keys = np.array([frame.mask(int(f) if isinstance(f, np.integer) else f) for f in focal_sets], dtype=np.int64)
+        keys = np.array([frame.mask(f.item() if isinstance(f, np.generic) else f) for f in focal_sets], dtype=np.int64)
     uniq, counts = np.unique(keys, return_counts=True)
     if (counts > 1).any():
         raise MassError(f"focal set {frame.label(int(uniq[np.argmax(counts > 1)]))!r} is given twice")
