@@ -260,9 +260,9 @@ class BeliefMap:
         Equal to :attr:`open_space` inside the box; it costs what the box holds, not the whole map.
         """
         if self._space_grid is None:
-            self._space_grid = GridIndex(NEAR_CELL)
-            for k, piece in enumerate(self._spaces):
-                self._space_grid.insert(str(k), piece.bounds)
+            keys = [str(k) for k in range(len(self._spaces))]
+            with _gc_paused():  # a container for every cell a piece meets, none of them garbage
+                self._space_grid = GridIndex.from_boxes(NEAR_CELL, keys, shapely.bounds(self._spaces))
         pieces = [self._spaces[int(k)] for k in self._space_grid.query(bounds)]
         return shapely.union_all(pieces) if pieces else shapely.MultiPolygon()
 
@@ -687,21 +687,27 @@ class BeliefMap:
         point (and so every line): it grows as points are added or moved, never shrinks.
         """
         if self._grids is None:
-            points, lines, targets = GridIndex(NEAR_CELL), GridIndex(NEAR_CELL), GridIndex(NEAR_CELL)
-            xys = list(self._graph.nodes(data="xy"))
-            for n, (x, y) in xys:
-                points.insert(n, (x, y, x, y))
-            for n, kind in self._graph.nodes(data="kind"):
-                if kind == "unidentified":
-                    x, y = self._graph.nodes[n]["xy"]
-                    targets.insert(n, (x, y, x, y))
-            for id in self._lines:
-                lines.insert(id, self._line_bounds(id))
-            self._grids = (points, lines, targets)
-            if xys:
-                xy = np.array([xy for _, xy in xys])
-                self._extent = [*xy.min(axis=0).tolist(), *xy.max(axis=0).tolist()]
+            with _gc_paused():  # hundreds of thousands of new containers, none of them garbage
+                self._grids = self._make_grids()
         return self._grids
+
+    def _make_grids(self) -> tuple[GridIndex, GridIndex, GridIndex]:
+        g = self._graph
+        ids = list(g)
+        xy = np.array([xy for _, xy in g.nodes(data="xy")], dtype=np.float64).reshape(-1, 2)
+        target = np.array([kind == "unidentified" for _, kind in g.nodes(data="kind")], dtype=bool)
+        index = dict(zip(ids, range(len(ids)), strict=True))
+        ends = np.array([(index[u], index[v]) for u, v in self._lines.values()], dtype=np.intp).reshape(-1, 2)
+        p, q = xy[ends[:, 0]], xy[ends[:, 1]]
+        if ids:
+            self._extent = [*xy.min(axis=0).tolist(), *xy.max(axis=0).tolist()]
+        return (
+            GridIndex.from_boxes(NEAR_CELL, ids, np.hstack([xy, xy])),
+            GridIndex.from_boxes(NEAR_CELL, list(self._lines), np.hstack([np.minimum(p, q), np.maximum(p, q)])),
+            GridIndex.from_boxes(
+                NEAR_CELL, [n for n, t in zip(ids, target.tolist()) if t], np.hstack([xy, xy])[target]
+            ),
+        )
 
     def _grid_point(self, id: str) -> None:
         """Put the point ``id`` in the grids (if made) at its place, within the extent (new, moved or of a new kind)."""

@@ -10,7 +10,11 @@ the objects found there, however large the map.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
+from itertools import pairwise
+
+import numpy as np
+from numpy.typing import NDArray
 
 __all__ = ["GridIndex"]
 
@@ -36,6 +40,42 @@ class GridIndex:
         self._cell = float(cell)
         self._cells: dict[tuple[int, int], set[str]] = {}
         self._where: dict[str, list[tuple[int, int]]] = {}
+
+    @classmethod
+    def from_boxes(cls, cell: float, keys: Sequence[str], boxes: NDArray[np.float64]) -> GridIndex:
+        """The grid of many objects at once: what inserting each ``keys[k]`` with ``boxes[k]`` makes.
+
+        ``keys`` are distinct; ``boxes`` is (n, 4), rows ``(xmin, ymin, xmax, ymax)``.
+
+        >>> grid = GridIndex.from_boxes(1.0, ["wall", "pillar"], np.array([[0, 0, 5, 0], [7.9, 7.9, 8.1, 8.1]]))
+        >>> sorted(grid.query((4.5, -0.5, 5.5, 0.5))), len(grid)
+        (['wall'], 2)
+        """
+        grid = cls(cell)
+        if not len(keys):
+            return grid
+        boxes = np.asarray(boxes, dtype=np.float64).reshape(len(keys), 4)
+        lo = np.floor(boxes[:, :2] / grid._cell).astype(np.int64)  # as _span computes them, one box at a time
+        hi = np.floor(boxes[:, 2:] / grid._cell).astype(np.int64)
+        rows = hi[:, 1] - lo[:, 1] + 1
+        count = (hi[:, 0] - lo[:, 0] + 1) * rows
+        owner = np.repeat(np.arange(len(keys)), count)
+        k = np.arange(owner.size) - np.repeat(np.cumsum(count) - count, count)  # each box's cells, i then j
+        i, j = lo[owner, 0] + k // rows[owner], lo[owner, 1] + k % rows[owner]
+        cells = list(zip(i.tolist(), j.tolist(), strict=True))
+        ends = np.cumsum(count).tolist()
+        grid._where = {key: cells[a:b] for key, a, b in zip(keys, [0, *ends[:-1]], ends, strict=True)}
+        order = np.lexsort((j, i))  # the (box, cell) pairs by cell
+        i, j = i[order], j[order]
+        starts = np.flatnonzero(np.r_[True, (i[1:] != i[:-1]) | (j[1:] != j[:-1])])
+        members = [keys[o] for o in owner[order].tolist()]
+        grid._cells = {
+            cell: set(members[a:b])
+            for cell, (a, b) in zip(
+                zip(i[starts].tolist(), j[starts].tolist()), pairwise([*starts.tolist(), order.size]), strict=True
+            )
+        }
+        return grid
 
     def __len__(self) -> int:
         return len(self._where)
