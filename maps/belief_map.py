@@ -34,12 +34,9 @@ is near, not the map), the evidential occupancy grid
 
 from __future__ import annotations
 
-import gc
 import math
 import operator
-import sys
-from collections.abc import Iterable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from collections.abc import Iterable, Mapping
 from itertools import chain, repeat
 from numbers import Real
 from pathlib import Path
@@ -52,6 +49,7 @@ import shapely
 from numpy.typing import NDArray
 
 from evidential import RULES, Frame, MassFunction, combine, conflict
+from maps import map_json
 from maps.occupancy import OccupancyParams, evidential_grid, occupancy_from_masses, write_atomic, write_ros_map
 from maps.segments import SegmentStore
 from maps.spatial import GridIndex
@@ -81,27 +79,6 @@ _EDGE_REQUIRED = frozenset(("id", "kind", "mass", "source", "target"))
 
 NEAR_CELL = 2.0
 """Side (m) of the grid cells of :meth:`BeliefMap.near` and :meth:`BeliefMap.open_space_near`."""
-
-
-@contextmanager
-def _gc_paused() -> Iterator[None]:
-    """Pause the cyclic garbage collector while a big map is written or read.
-
-    Both allocate hundreds of thousands of containers, none of them garbage;
-    the collector's passes over them would double the time. At the end the
-    new containers go straight to the oldest generation (``gc.freeze`` then
-    ``gc.unfreeze``), where the collector's passes over them would have moved
-    them: otherwise its first pass after the pause walks them all at once.
-    """
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        gc.freeze()
-        gc.unfreeze()
-        if enabled:
-            gc.enable()
 
 
 class MapFileError(InputError):
@@ -180,7 +157,7 @@ class BeliefMap:
             schema_version=SCHEMA_VERSION,
             frame=list(frame.elements),
             rule=rule,
-            open_space=_geojson(shapely.MultiPolygon()),
+            open_space=map_json.geojson(shapely.MultiPolygon()),
             **attrs,
         )
         self._lines: dict[str, tuple[str, str]] = {}
@@ -228,16 +205,16 @@ class BeliefMap:
         """
         if self._open_space is None:
             union = shapely.union_all(self._spaces)
-            self._open_space = union if isinstance(union, shapely.MultiPolygon) else _as_multipolygon(union)
-            self._graph.graph["open_space"] = _geojson(self._open_space)
+            self._open_space = union if isinstance(union, shapely.MultiPolygon) else map_json.as_multipolygon(union)
+            self._graph.graph["open_space"] = map_json.geojson(self._open_space)
         return self._open_space
 
     @open_space.setter
     def open_space(self, geometry: shapely.Geometry | None) -> None:
-        geometry = _as_multipolygon(geometry)
+        geometry = map_json.as_multipolygon(geometry)
         self._spaces = list(geometry.geoms)
         self._space_grid = None
-        self._graph.graph["open_space"] = _geojson(geometry)
+        self._graph.graph["open_space"] = map_json.geojson(geometry)
         self._open_space = geometry
         self._changed()
 
@@ -246,7 +223,7 @@ class BeliefMap:
 
         Cheap however large the map: the union is made when :attr:`open_space` is read.
         """
-        geometry = _as_multipolygon(geometry)
+        geometry = map_json.as_multipolygon(geometry)
         for piece in geometry.geoms:
             if self._space_grid is not None:
                 self._space_grid.insert(str(len(self._spaces)), piece.bounds)
@@ -261,7 +238,7 @@ class BeliefMap:
         """
         if self._space_grid is None:
             keys = [str(k) for k in range(len(self._spaces))]
-            with _gc_paused():  # a container for every cell a piece meets, none of them garbage
+            with map_json.gc_paused():  # a container for every cell a piece meets, none of them garbage
                 self._space_grid = GridIndex.from_boxes(NEAR_CELL, keys, shapely.bounds(self._spaces))
         pieces = [self._spaces[int(k)] for k in self._space_grid.query(bounds)]
         return shapely.union_all(pieces) if pieces else shapely.MultiPolygon()
@@ -375,7 +352,7 @@ class BeliefMap:
         if "id" in attrs or (is_line and ({"kind", "xy", "source", "target"} & set(attrs))):
             raise ValueError(f"{id!r}: cannot set {sorted(attrs)}: id, and a line's kind and ends, are fixed")
         checked = dict(attrs)
-        _check_json({k: v for k, v in attrs.items() if k not in ("mass", "xy")}, id)
+        map_json.check_json({k: v for k, v in attrs.items() if k not in ("mass", "xy")}, id)
         if "mass" in attrs:
             checked["mass"] = self._check_mass(attrs["mass"], id)
         if "xy" in attrs:
@@ -409,7 +386,7 @@ class BeliefMap:
         """
         data = self._data(id)
         mass = self._check_mass(mass, id)
-        _check_json(record, f"{id}: record")
+        map_json.check_json(record, f"{id}: record")
         combined = combine(data["mass"], mass, rule=self.rule)
         data["history"].append(
             {**record, "rule": self.rule, "conflict": conflict(data["mass"], mass), "mass": mass.to_dict()}
@@ -599,24 +576,24 @@ class BeliefMap:
         and edges in insertion order. The records are new dicts; their values
         (histories, extras) are the map's own.
         """
-        with _gc_paused():
+        with map_json.gc_paused():
             g = self._graph
             points = [d for _, d in g.nodes(data=True)]
             adj = dict(g.adjacency())
             lines = [adj[u][v] for u, v in self._lines.values()]
-            encode = _MassCodec(self._frame).encode
+            encode = map_json.MassCodec(self._frame).encode
             nodes = [{**d, "mass": m} for d, m in zip(points, encode([d["mass"] for d in points]), strict=True)]
             edges = [
                 {**d, "mass": m, "source": u, "target": v}
                 for d, m, (u, v) in zip(lines, encode([d["mass"] for d in lines]), self._lines.values(), strict=True)
             ]
-            graph = {**g.graph, "open_space": _geojson(self.open_space), "segments": self.segments.to_json()}
+            graph = {**g.graph, "open_space": map_json.geojson(self.open_space), "segments": self.segments.to_json()}
             return {"directed": False, "multigraph": False, "graph": graph, "nodes": nodes, "edges": edges}
 
     @classmethod
     def from_data(cls, data: Any, name: str = "map") -> BeliefMap:
         """Build a map from :meth:`to_data`'s layout; :class:`MapFileError` names ``name`` and the problem."""
-        with _gc_paused():
+        with map_json.gc_paused():
             return _MapReader(name).read(data)
 
     def save(self, path: str | Path) -> None:
@@ -626,9 +603,9 @@ class BeliefMap:
         read back bit-exact; every attribute and the history round-trip (tuples
         come back as lists, except ``xy``).
         """
-        _check_json({k: v for k, v in self._graph.graph.items() if k not in _GRAPH_KEYS}, "graph")
+        map_json.check_json({k: v for k, v in self._graph.graph.items() if k not in _GRAPH_KEYS}, "graph")
         try:
-            with _gc_paused():
+            with map_json.gc_paused():
                 text = orjson.dumps(self.to_data())  # the records are freed before the file is written
         except TypeError as exc:  # an attribute changed in the graph directly, bypassing the checks
             raise ValueError(f"cannot save the map to {path}: {exc}") from None
@@ -649,7 +626,7 @@ class BeliefMap:
             text = Path(path).read_bytes()
         except OSError as exc:
             raise MapFileError(f"{path}: cannot read file: {exc}") from None
-        with _gc_paused():
+        with map_json.gc_paused():
             try:
                 data = orjson.loads(text)
             except orjson.JSONDecodeError as exc:
@@ -687,7 +664,7 @@ class BeliefMap:
         point (and so every line): it grows as points are added or moved, never shrinks.
         """
         if self._grids is None:
-            with _gc_paused():  # hundreds of thousands of new containers, none of them garbage
+            with map_json.gc_paused():  # hundreds of thousands of new containers, none of them garbage
                 self._grids = self._make_grids()
         return self._grids
 
@@ -772,7 +749,7 @@ class BeliefMap:
 
     def _current(self) -> _Index:
         if self._index is None:
-            with _gc_paused():
+            with map_json.gc_paused():
                 self._index = _Index(self._graph, self._lines, self._frame.mask("real"))
         return self._index
 
@@ -861,69 +838,6 @@ def _segment_distances(
     return np.where(cross, 0.0, ends)
 
 
-class _MassCodec:
-    """Mass functions to ``{FOCAL: float}`` and back, in bulk (a map file holds hundreds of thousands)."""
-
-    def __init__(self, frame: Frame) -> None:
-        self.frame = frame
-
-    def encode(self, masses: list[MassFunction]) -> list[dict[str, float]]:
-        """``{FOCAL: float}`` of each mass function, as :meth:`MassFunction.to_dict` writes it."""
-        labels_of: dict[bytes, list[str]] = {}
-        out = []
-        for m in masses:
-            masks = m.masks
-            labels = labels_of.get(key := masks.tobytes())
-            if labels is None:
-                labels = labels_of[key] = [self.frame.label(k) for k in masks.tolist()]
-            out.append(dict(zip(labels, m.masses.tolist())))  # (zip's strict=True would cost a third)
-        return out
-
-    def decode(self, dicts: list[dict[Any, Any]]) -> list[MassFunction]:
-        """The mass functions of the dicts; a bad one raises ``_BadMass(index, engine's message)``.
-
-        Dicts with the same focal sets are made as one array
-        (:meth:`MassFunction.from_rows`); where that fails, each dict of the
-        group goes through the engine's own constructor, which either accepts
-        it or says what is wrong.
-        """
-        if not dicts:
-            return []
-        keys = list(map(tuple, dicts))
-        code = {k: c for c, k in enumerate(dict.fromkeys(keys))}
-        group = np.fromiter(map(code.__getitem__, keys), dtype=np.intp, count=len(keys))
-        members = np.split(np.argsort(group, kind="stable"), np.cumsum(np.bincount(group, minlength=len(code)))[:-1])
-        out: list[Any] = [None] * len(dicts)
-        for focal, rows in zip(code, members, strict=True):
-            rows = rows.tolist()
-            for i, m in zip(rows, self._group(focal, list(map(dicts.__getitem__, rows))), strict=True):
-                if m is None:
-                    try:
-                        m = MassFunction.from_dict(self.frame, dicts[i], open_world=True)
-                    except (ValueError, TypeError, OverflowError) as exc:
-                        raise _BadMass(i, str(exc)) from None
-                out[i] = m
-        return out
-
-    def _group(self, keys: tuple[Any, ...], dicts: list[dict[Any, Any]]) -> Sequence[MassFunction | None]:
-        """The mass functions of dicts that all have the focal sets ``keys``; None for each if one is bad."""
-        flat = list(chain.from_iterable(map(dict.values, dicts)))
-        if not set(map(type, flat)) <= {float, int}:  # not bool, not str: the constructor says what is wrong
-            return [None] * len(dicts)
-        try:
-            values = np.array(flat, dtype=np.float64).reshape(len(dicts), len(keys))
-            return MassFunction.from_rows(self.frame, keys, values, open_world=True)
-        except (ValueError, TypeError, OverflowError):
-            return [None] * len(dicts)
-
-
-class _BadMass(Exception):
-    def __init__(self, index: int, problem: str) -> None:
-        super().__init__(problem)
-        self.index = index
-        self.problem = problem
-
-
 class _MapReader:
     """Checks the node-link layout of a map file and builds the map; errors name the file and the place.
 
@@ -948,13 +862,13 @@ class _MapReader:
         if data.get("directed", False) is not False or data.get("multigraph", False) is not False:
             raise self.fail("", "a map is an undirected simple graph ('directed' and 'multigraph' false)")
         bm = self.empty_map(data["graph"])
-        codec = _MassCodec(bm.frame)
+        codec = map_json.MassCodec(bm.frame)
         nodes = self.records(data["nodes"], "nodes", _NODE_REQUIRED, frozenset())
         xy = self.points(nodes)
         kinds = [d["kind"] for d in nodes]
         if not all(map(POINT_KINDS.__contains__, kinds)):
             i = next(i for i, kind in enumerate(kinds) if kind not in POINT_KINDS)
-            raise self.fail(f"nodes[{i}].kind", f"must be one of {list(POINT_KINDS)}, got {_shown(kinds[i])}")
+            raise self.fail(f"nodes[{i}].kind", f"must be one of {list(POINT_KINDS)}, got {map_json.shown(kinds[i])}")
         masses = self.masses(codec, nodes, "nodes")
         ids = [d["id"] for d in nodes]
         points = frozenset(ids)
@@ -978,11 +892,12 @@ class _MapReader:
             raise self.fail("graph.schema_version", "missing: not a map file")
         if version != SCHEMA_VERSION or isinstance(version, bool):
             raise self.fail(
-                "graph.schema_version", f"unknown schema version {_shown(version)} (this evmap reads {SCHEMA_VERSION})"
+                "graph.schema_version",
+                f"unknown schema version {map_json.shown(version)} (this evmap reads {SCHEMA_VERSION})",
             )
         frame = attrs.get("frame")
         if not (isinstance(frame, list) and all(isinstance(e, str) for e in frame)):
-            raise self.fail("graph.frame", f"must be a list of element names, got {_shown(frame)}")
+            raise self.fail("graph.frame", f"must be a list of element names, got {map_json.shown(frame)}")
         extras = {k: v for k, v in attrs.items() if k not in _GRAPH_KEYS}
         try:
             bm = BeliefMap(frame, attrs.get("rule"), **extras)
@@ -995,7 +910,7 @@ class _MapReader:
                 raise self.fail("graph.segments", str(exc)) from None
         if "open_space" in attrs:
             try:
-                bm.open_space = _multipolygon(attrs["open_space"])
+                bm.open_space = map_json.multipolygon(attrs["open_space"])
             except (ValueError, TypeError, shapely.errors.ShapelyError) as exc:
                 raise self.fail("graph.open_space", str(exc)) from None
         return bm
@@ -1021,17 +936,19 @@ class _MapReader:
         ids = set(taken)
         for i, d in enumerate(raw):
             if type(d) is not dict:
-                raise self.fail(f"{key}[{i}]", f"must be an object, got {_shown(d)}")
+                raise self.fail(f"{key}[{i}]", f"must be an object, got {map_json.shown(d)}")
             if not d.keys() >= required:
                 raise self.fail(f"{key}[{i}]", f"required keys {sorted(required - d.keys())} are missing")
             id = d["id"]
             if not (type(id) is str and id):
-                raise self.fail(f"{key}[{i}].id", f"must be a non-empty string, got {_shown(id)}")
+                raise self.fail(f"{key}[{i}].id", f"must be a non-empty string, got {map_json.shown(id)}")
             if id in ids:
                 raise self.fail(f"{key}[{i}].id", f"id {id!r} is used twice")
             ids.add(id)
             if type(d["mass"]) is not dict:
-                raise self.fail(f"{key}[{i}].mass", f"must be an object {{FOCAL: mass}}, got {_shown(d['mass'])}")
+                raise self.fail(
+                    f"{key}[{i}].mass", f"must be an object {{FOCAL: mass}}, got {map_json.shown(d['mass'])}"
+                )
             history = d.get("history", [])
             if not (type(history) is list and all(type(r) is dict for r in history)):
                 raise self.fail(f"{key}[{i}].history", "must be a list of objects")
@@ -1041,11 +958,11 @@ class _MapReader:
         xys = [d["xy"] for d in nodes]
         if set(map(type, xys)) <= {list, tuple} and set(map(len, xys)) <= {2}:
             flat = list(chain.from_iterable(xys))
-            if set(map(type, flat)) <= {float, int} and all(map(_finite, flat)):
+            if set(map(type, flat)) <= {float, int} and all(map(map_json.finite, flat)):
                 return list(zip(map(float, flat[0::2]), map(float, flat[1::2]), strict=True))
         for i, xy in enumerate(xys):
-            if not (type(xy) in (list, tuple) and len(xy) == 2 and _finite(xy[0]) and _finite(xy[1])):
-                raise self.fail(f"nodes[{i}].xy", f"must be [x, y] with two finite numbers, got {_shown(xy)}")
+            if not (type(xy) in (list, tuple) and len(xy) == 2 and map_json.finite(xy[0]) and map_json.finite(xy[1])):
+                raise self.fail(f"nodes[{i}].xy", f"must be [x, y] with two finite numbers, got {map_json.shown(xy)}")
         return [(float(x), float(y)) for x, y in xys]
 
     def ends(self, edges: list[dict[str, Any]], points: frozenset[str]) -> list[tuple[str, str]]:
@@ -1063,10 +980,10 @@ class _MapReader:
             seen: set[tuple[str, str]] = set()
             for i, (d, u, v) in enumerate(zip(edges, us, vs, strict=True)):
                 if d["kind"] != LINE_KIND:
-                    raise self.fail(f"edges[{i}].kind", f"must be {LINE_KIND!r}, got {_shown(d['kind'])}")
+                    raise self.fail(f"edges[{i}].kind", f"must be {LINE_KIND!r}, got {map_json.shown(d['kind'])}")
                 for end, name in ((u, "source"), (v, "target")):
                     if not (type(end) is str and end in points):
-                        problem = f"must be the id of a point of the map, got {_shown(end)}"
+                        problem = f"must be the id of a point of the map, got {map_json.shown(end)}"
                         raise self.fail(f"edges[{i}].{name}", problem)
                 if u == v or (u, v) in seen or (v, u) in seen:
                     problem = f"line {d['id']!r} from {u!r} to {v!r}: a loop, or a second line there"
@@ -1074,10 +991,10 @@ class _MapReader:
                 seen.add((u, v))
         return list(zip(us, vs, strict=True))
 
-    def masses(self, codec: _MassCodec, records: list[dict[str, Any]], key: str) -> list[MassFunction]:
+    def masses(self, codec: map_json.MassCodec, records: list[dict[str, Any]], key: str) -> list[MassFunction]:
         try:
             return codec.decode([r["mass"] for r in records])
-        except _BadMass as exc:
+        except map_json.BadMass as exc:
             raise self.fail(f"{key}[{exc.index}].mass", exc.problem) from None
 
 
@@ -1114,7 +1031,7 @@ def _xy(xy: Iterable[float], what: str) -> tuple[float, float]:
         x, y = xy
         point = (float(x), float(y))
     except (TypeError, ValueError):
-        raise ValueError(f"{what}: a point must be (x, y), got {_shown(xy)}") from None
+        raise ValueError(f"{what}: a point must be (x, y), got {map_json.shown(xy)}") from None
     if not (math.isfinite(point[0]) and math.isfinite(point[1])):
         raise ValueError(f"{what}: a point must have finite coordinates, got {point}")
     return point
@@ -1130,94 +1047,10 @@ def _check_extras(attrs: Mapping[str, Any], reserved: tuple[str, ...], id: str) 
     clash = sorted(set(attrs) & set(reserved))
     if clash:
         raise ValueError(f"{id!r}: attributes {clash} are reserved")
-    _check_json(attrs, id)
+    map_json.check_json(attrs, id)
 
 
 def _history(history: Iterable[Mapping[str, Any]], id: str) -> list[dict[str, Any]]:
     records = [dict(record) for record in history]
-    _check_json(records, f"{id}: history")
+    map_json.check_json(records, f"{id}: history")
     return records
-
-
-def _check_json(value: Any, where: str) -> None:
-    """Refuse a value that JSON cannot carry exactly (so that ``save`` is lossless)."""
-    problem = _json_problem(value, "")
-    if problem:
-        raise ValueError(f"{where}: {problem}")
-
-
-def _json_problem(value: Any, path: str) -> str | None:
-    kind = type(value)
-    if value is None or kind is bool or kind is int or kind is str:
-        return None
-    if kind is float:
-        return None if math.isfinite(value) else f"{path or 'value'}: {value!r} is not finite"
-    if kind is list or kind is tuple:
-        return next((p for i, v in enumerate(value) if (p := _json_problem(v, f"{path}[{i}]"))), None)
-    if kind is dict:
-        for k, v in value.items():
-            if type(k) is not str:
-                return f"{path or 'value'}: key {k!r} is not a string"
-            if p := _json_problem(v, f"{path}.{k}" if path else k):
-                return p
-        return None
-    return f"{path or 'value'}: a {kind.__name__} is not JSON (None, bool, int, finite float, str, list, dict)"
-
-
-def _finite(value: Any) -> bool:
-    """A float that is finite, or an int that a float can hold (not a bool)."""
-    if type(value) is float:
-        return math.isfinite(value)
-    return type(value) is int and abs(value) <= sys.float_info.max
-
-
-def _shown(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _as_multipolygon(geometry: shapely.Geometry | None) -> shapely.MultiPolygon:
-    """A valid Polygon, MultiPolygon, empty geometry or None as a MultiPolygon; a ValueError otherwise."""
-    if geometry is None or geometry.is_empty:
-        return shapely.MultiPolygon()
-    if isinstance(geometry, shapely.Polygon):
-        geometry = shapely.MultiPolygon([geometry])
-    if not isinstance(geometry, shapely.MultiPolygon):
-        raise ValueError(f"open_space must be a Polygon or MultiPolygon, got a {geometry.geom_type}")  # noqa: TRY004
-    if not geometry.is_valid:
-        raise ValueError(f"open_space is not a valid geometry: {shapely.is_valid_reason(geometry)}")
-    return geometry
-
-
-def _geojson(geometry: shapely.MultiPolygon) -> dict[str, Any]:
-    """GeoJSON-like dict of a MultiPolygon, coordinates as nested lists (exact floats)."""
-    if geometry.is_empty:
-        return {"type": "MultiPolygon", "coordinates": []}
-    _, coords, (ring_end, polygon_end, _) = shapely.to_ragged_array([geometry])
-    points = coords.tolist()
-    rings = [points[a:b] for a, b in zip(ring_end[:-1].tolist(), ring_end[1:].tolist(), strict=True)]
-    polygons = [rings[a:b] for a, b in zip(polygon_end[:-1].tolist(), polygon_end[1:].tolist(), strict=True)]
-    return {"type": "MultiPolygon", "coordinates": polygons}
-
-
-def _multipolygon(value: Any) -> shapely.MultiPolygon:
-    """The MultiPolygon of :func:`_geojson`'s dict."""
-    if not (
-        isinstance(value, dict) and value.get("type") == "MultiPolygon" and isinstance(value.get("coordinates"), list)
-    ):
-        raise ValueError(f"must be {{'type': 'MultiPolygon', 'coordinates': [...]}}, got {_shown(value)}")
-    polygons = value["coordinates"]
-    if not polygons:
-        return shapely.MultiPolygon()
-    if not all(isinstance(p, list) and p and all(isinstance(r, list) for r in p) for p in polygons):
-        raise ValueError("coordinates must be a list of polygons, each a non-empty list of rings")
-    rings = [ring for polygon in polygons for ring in polygon]
-    coords = np.array([xy for ring in rings for xy in ring], dtype=np.float64)
-    if coords.ndim != 2 or coords.shape[1] != 2 or not np.isfinite(coords).all():
-        raise ValueError("every coordinate must be [x, y] with finite numbers")
-    offsets = (
-        np.cumsum([0] + [len(ring) for ring in rings]),
-        np.cumsum([0] + [len(polygon) for polygon in polygons]),
-        np.array([0, len(polygons)]),
-    )
-    return shapely.from_ragged_array(shapely.GeometryType.MULTIPOLYGON, coords, offsets)[0]

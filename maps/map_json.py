@@ -1,0 +1,208 @@
+"""What a map file holds: JSON values, the open space as GeoJSON, mass functions as ``{FOCAL: float}``.
+
+The pieces :mod:`maps.belief_map` writes and reads ``map.json`` with
+(``shared/SCENARIO.md``): the check that a value JSON carries exactly (so that a
+save is lossless), the open space to and from GeoJSON-like coordinates, mass
+functions to and from dicts in bulk, and a pause of the garbage collector while
+hundreds of thousands of records are made.
+"""
+
+from __future__ import annotations
+
+import gc
+import math
+import sys
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from itertools import chain
+from typing import Any
+
+import numpy as np
+import shapely
+
+from evidential import Frame, MassFunction
+
+__all__ = [
+    "BadMass",
+    "MassCodec",
+    "as_multipolygon",
+    "check_json",
+    "finite",
+    "gc_paused",
+    "geojson",
+    "json_problem",
+    "multipolygon",
+    "shown",
+]
+
+
+@contextmanager
+def gc_paused() -> Iterator[None]:
+    """Pause the cyclic garbage collector while a big map is written or read, or its grids made.
+
+    Each allocates hundreds of thousands of containers, none of them garbage;
+    the collector's passes over them would double the time. At the end the
+    new containers go straight to the oldest generation (``gc.freeze`` then
+    ``gc.unfreeze``), where the collector's passes over them would have moved
+    them: otherwise its first pass after the pause walks them all at once.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.freeze()
+        gc.unfreeze()
+        if enabled:
+            gc.enable()
+
+
+class MassCodec:
+    """Mass functions to ``{FOCAL: float}`` and back, in bulk (a map file holds hundreds of thousands)."""
+
+    def __init__(self, frame: Frame) -> None:
+        self.frame = frame
+
+    def encode(self, masses: list[MassFunction]) -> list[dict[str, float]]:
+        """``{FOCAL: float}`` of each mass function, as :meth:`MassFunction.to_dict` writes it."""
+        labels_of: dict[bytes, list[str]] = {}
+        out = []
+        for m in masses:
+            masks = m.masks
+            labels = labels_of.get(key := masks.tobytes())
+            if labels is None:
+                labels = labels_of[key] = [self.frame.label(k) for k in masks.tolist()]
+            out.append(dict(zip(labels, m.masses.tolist())))  # (zip's strict=True would cost a third)
+        return out
+
+    def decode(self, dicts: list[dict[Any, Any]]) -> list[MassFunction]:
+        """The mass functions of the dicts; a bad one raises ``BadMass(index, engine's message)``.
+
+        Dicts with the same focal sets are made as one array
+        (:meth:`MassFunction.from_rows`); where that fails, each dict of the
+        group goes through the engine's own constructor, which either accepts
+        it or says what is wrong.
+        """
+        if not dicts:
+            return []
+        keys = list(map(tuple, dicts))
+        code = {k: c for c, k in enumerate(dict.fromkeys(keys))}
+        group = np.fromiter(map(code.__getitem__, keys), dtype=np.intp, count=len(keys))
+        members = np.split(np.argsort(group, kind="stable"), np.cumsum(np.bincount(group, minlength=len(code)))[:-1])
+        out: list[Any] = [None] * len(dicts)
+        for focal, rows in zip(code, members, strict=True):
+            rows = rows.tolist()
+            for i, m in zip(rows, self._group(focal, list(map(dicts.__getitem__, rows))), strict=True):
+                if m is None:
+                    try:
+                        m = MassFunction.from_dict(self.frame, dicts[i], open_world=True)
+                    except (ValueError, TypeError, OverflowError) as exc:
+                        raise BadMass(i, str(exc)) from None
+                out[i] = m
+        return out
+
+    def _group(self, keys: tuple[Any, ...], dicts: list[dict[Any, Any]]) -> Sequence[MassFunction | None]:
+        """The mass functions of dicts that all have the focal sets ``keys``; None for each if one is bad."""
+        flat = list(chain.from_iterable(map(dict.values, dicts)))
+        if not set(map(type, flat)) <= {float, int}:  # not bool, not str: the constructor says what is wrong
+            return [None] * len(dicts)
+        try:
+            values = np.array(flat, dtype=np.float64).reshape(len(dicts), len(keys))
+            return MassFunction.from_rows(self.frame, keys, values, open_world=True)
+        except (ValueError, TypeError, OverflowError):
+            return [None] * len(dicts)
+
+
+class BadMass(Exception):
+    """The mass of record ``index`` is bad: ``problem`` says why (the engine's message)."""
+
+    def __init__(self, index: int, problem: str) -> None:
+        super().__init__(problem)
+        self.index = index
+        self.problem = problem
+
+
+def check_json(value: Any, where: str) -> None:
+    """Refuse a value that JSON cannot carry exactly (so that ``save`` is lossless)."""
+    problem = json_problem(value, "")
+    if problem:
+        raise ValueError(f"{where}: {problem}")
+
+
+def json_problem(value: Any, path: str) -> str | None:
+    """What keeps ``value`` (at ``path``) from being JSON that reads back the same, or None."""
+    kind = type(value)
+    if value is None or kind is bool or kind is int or kind is str:
+        return None
+    if kind is float:
+        return None if math.isfinite(value) else f"{path or 'value'}: {value!r} is not finite"
+    if kind is list or kind is tuple:
+        return next((p for i, v in enumerate(value) if (p := json_problem(v, f"{path}[{i}]"))), None)
+    if kind is dict:
+        for k, v in value.items():
+            if type(k) is not str:
+                return f"{path or 'value'}: key {k!r} is not a string"
+            if p := json_problem(v, f"{path}.{k}" if path else k):
+                return p
+        return None
+    return f"{path or 'value'}: a {kind.__name__} is not JSON (None, bool, int, finite float, str, list, dict)"
+
+
+def finite(value: Any) -> bool:
+    """A float that is finite, or an int that a float can hold (not a bool)."""
+    if type(value) is float:
+        return math.isfinite(value)
+    return type(value) is int and abs(value) <= sys.float_info.max
+
+
+def shown(value: Any) -> str:
+    """``repr(value)``, cut to 60 characters for an error message."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def as_multipolygon(geometry: shapely.Geometry | None) -> shapely.MultiPolygon:
+    """A valid Polygon, MultiPolygon, empty geometry or None as a MultiPolygon; a ValueError otherwise."""
+    if geometry is None or geometry.is_empty:
+        return shapely.MultiPolygon()
+    if isinstance(geometry, shapely.Polygon):
+        geometry = shapely.MultiPolygon([geometry])
+    if not isinstance(geometry, shapely.MultiPolygon):
+        raise ValueError(f"open_space must be a Polygon or MultiPolygon, got a {geometry.geom_type}")  # noqa: TRY004
+    if not geometry.is_valid:
+        raise ValueError(f"open_space is not a valid geometry: {shapely.is_valid_reason(geometry)}")
+    return geometry
+
+
+def geojson(geometry: shapely.MultiPolygon) -> dict[str, Any]:
+    """GeoJSON-like dict of a MultiPolygon, coordinates as nested lists (exact floats)."""
+    if geometry.is_empty:
+        return {"type": "MultiPolygon", "coordinates": []}
+    _, coords, (ring_end, polygon_end, _) = shapely.to_ragged_array([geometry])
+    points = coords.tolist()
+    rings = [points[a:b] for a, b in zip(ring_end[:-1].tolist(), ring_end[1:].tolist(), strict=True)]
+    polygons = [rings[a:b] for a, b in zip(polygon_end[:-1].tolist(), polygon_end[1:].tolist(), strict=True)]
+    return {"type": "MultiPolygon", "coordinates": polygons}
+
+
+def multipolygon(value: Any) -> shapely.MultiPolygon:
+    """The MultiPolygon of :func:`geojson`'s dict."""
+    if not (
+        isinstance(value, dict) and value.get("type") == "MultiPolygon" and isinstance(value.get("coordinates"), list)
+    ):
+        raise ValueError(f"must be {{'type': 'MultiPolygon', 'coordinates': [...]}}, got {shown(value)}")
+    polygons = value["coordinates"]
+    if not polygons:
+        return shapely.MultiPolygon()
+    if not all(isinstance(p, list) and p and all(isinstance(r, list) for r in p) for p in polygons):
+        raise ValueError("coordinates must be a list of polygons, each a non-empty list of rings")
+    rings = [ring for polygon in polygons for ring in polygon]
+    coords = np.array([xy for ring in rings for xy in ring], dtype=np.float64)
+    if coords.ndim != 2 or coords.shape[1] != 2 or not np.isfinite(coords).all():
+        raise ValueError("every coordinate must be [x, y] with finite numbers")
+    offsets = (
+        np.cumsum([0] + [len(ring) for ring in rings]),
+        np.cumsum([0] + [len(polygon) for polygon in polygons]),
+        np.array([0, len(polygons)]),
+    )
+    return shapely.from_ragged_array(shapely.GeometryType.MULTIPOLYGON, coords, offsets)[0]
