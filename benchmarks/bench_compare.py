@@ -13,7 +13,7 @@ import argparse
 import statistics
 import time
 
-from maps.compare import DEFAULT_RULES, run_comparison
+from evmap.maps.app.compare import DEFAULT_RULES, run_comparison
 
 
 def timed(**kwargs):  # type: ignore[no-untyped-def]

@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
-from maps.corners import find_corners
-from maps.matching import match_rcds
-from maps.merging import merge_segments
+from evmap.maps.corners import find_corners
+from evmap.maps.matching import match_rcds
+from evmap.maps.merging import merge_segments
 
 
 def rooms(n_segments: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

@@ -14,10 +14,10 @@ from functools import partial
 
 import numpy as np
 
-from sources.lsl import lsl_segments, observe_lsl
-from sources.params import LslParams
-from sources.scenario import Scenario, default_scenario
-from sources.world import World
+from evmap.sources.sim.lsl import lsl_segments, observe_lsl
+from evmap.sources.params import LslParams
+from evmap.sources.sim.scenario import Scenario, default_scenario
+from evmap.sources.sim.world import World
 
 
 def building(rooms_per_side: int) -> World:

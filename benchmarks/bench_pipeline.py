@@ -16,12 +16,12 @@ import time
 
 import numpy as np
 
-from maps.observation import observe
-from maps.pipeline import new_map
-from maps.run import run_scenario
-from sources.config import load_config
-from sources.scenario import default_scenario
-from sources.world import World
+from evmap.maps.observation import observe
+from evmap.maps.pipeline import new_map
+from evmap.maps.app.run import run_scenario
+from evmap.sources.config import load_config
+from evmap.sources.sim.scenario import default_scenario
+from evmap.sources.sim.world import World
 
 REPEATS = 15
 

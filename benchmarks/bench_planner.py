@@ -33,7 +33,7 @@ import orjson
 import shapely
 
 from evidential import Frame, MassFunction
-from maps import BeliefMap
+from evmap.maps import BeliefMap
 
 ROOM = 4.0
 DOOR = (1.5, 2.5)

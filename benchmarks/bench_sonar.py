@@ -18,9 +18,9 @@ import time
 
 import numpy as np
 
-from sources.params import SonarParams
-from sources.sonar import simulate_scan
-from sources.surfaces import Surfaces
+from evmap.sources.params import SonarParams
+from evmap.sources.sim.sonar import simulate_scan
+from evmap.sources.sim.surfaces import Surfaces
 
 ROOM = 2.5
 DOOR = 0.9

@@ -20,15 +20,15 @@ import time
 import numpy as np
 import shapely
 
-from maps.belief_map import BeliefMap
-from maps.corners import find_corners
-from maps.noise import noise_evidence
-from maps.observation import Observation
-from maps.pipeline import new_map
-from sources.config import load_config
-from sources.lsl import lsl_segments
-from sources.sonar import simulate_scan
-from sources.surfaces import Surfaces
+from evmap.maps.belief_map import BeliefMap
+from evmap.maps.corners import find_corners
+from evmap.maps.noise import noise_evidence
+from evmap.maps.observation import Observation
+from evmap.maps.pipeline import new_map
+from evmap.sources.config import load_config
+from evmap.sources.sim.lsl import lsl_segments
+from evmap.sources.sim.sonar import simulate_scan
+from evmap.sources.sim.surfaces import Surfaces
 
 ROOM = 4.0
 DOOR = (1.5, 2.4)  # the door's span along each room's south wall (m from its corner)

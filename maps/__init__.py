@@ -1,5 +1,5 @@
 """The line-corner belief map and the fusion pipeline that builds it."""
 
-from maps.belief_map import BeliefMap, Line, MapFileError, Point
+from evmap.maps.belief_map import BeliefMap, Line, MapFileError, Point
 
 __all__ = ["BeliefMap", "Line", "MapFileError", "Point"]

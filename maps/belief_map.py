@@ -28,8 +28,8 @@ The planner's queries (the names of issue 6) use a belief ``Bel({real})``:
 the grid of :meth:`~BeliefMap.near` and a cache of the obstacles' beliefs, both
 kept up to date one object at a time: a query right after a change costs what
 is near, not the map), the evidential occupancy grid
-(:mod:`maps.occupancy`) and its ROS export, and lossless :meth:`~BeliefMap.save`
-/ :meth:`~BeliefMap.load` of ``map.json`` (``shared/SCENARIO.md``).
+(:mod:`evmap.maps.occupancy`) and its ROS export, and lossless :meth:`~BeliefMap.save`
+/ :meth:`~BeliefMap.load` of ``map.json`` (``docs/SCENARIO.md``).
 """
 
 from __future__ import annotations
@@ -49,16 +49,16 @@ import shapely
 from numpy.typing import NDArray
 
 from evidential import RULES, Frame, MassFunction, combine, conflict
-from maps import map_json
-from maps.occupancy import OccupancyParams, evidential_grid, occupancy_from_masses, write_atomic, write_ros_map
-from maps.segments import SegmentStore
-from maps.spatial import GridIndex
-from sources.config import Config, config_from_data
-from sources.loading import InputError
+from evmap.maps import map_json
+from evmap.maps.occupancy import OccupancyParams, evidential_grid, occupancy_from_masses, write_atomic, write_ros_map
+from evmap.maps.segments import SegmentStore
+from evmap.maps.spatial import GridIndex
+from evmap.sources.config import Config, config_from_data
+from evmap.sources.loading import InputError
 
 if TYPE_CHECKING:
-    from maps.observation import Observation
-    from maps.pipeline import PoseOutcome
+    from evmap.maps.observation import Observation
+    from evmap.maps.pipeline import PoseOutcome
 
 __all__ = ["LINE_KIND", "POINT_KINDS", "SCHEMA_VERSION", "BeliefMap", "Line", "MapFileError", "Point"]
 
@@ -170,7 +170,7 @@ class BeliefMap:
         self._index: _Index | None = None
         self._config: Config | None = None
         self.segments = SegmentStore.empty(frame)
-        """The raw LSL segments behind the lines (:class:`maps.segments.SegmentStore`)."""
+        """The raw LSL segments behind the lines (:class:`evmap.maps.segments.SegmentStore`)."""
 
     def __repr__(self) -> str:
         return (
@@ -402,7 +402,7 @@ class BeliefMap:
     def config(self) -> Config:
         """The config the map folds observations with (stored in the graph as ``config``).
 
-        Maps made by :func:`maps.pipeline.new_map` (and so by ``evmap run``) carry one.
+        Maps made by :func:`evmap.maps.pipeline.new_map` (and so by ``evmap run``) carry one.
         """
         if self._config is None:
             if "config" not in self._graph.graph:
@@ -411,8 +411,8 @@ class BeliefMap:
         return self._config
 
     def update(self, observation: Observation) -> PoseOutcome:
-        """Fold in one pose's observation by the paper's pipeline (:func:`maps.pipeline.fold_observation`)."""
-        from maps.pipeline import fold_observation  # the pipeline builds on this class
+        """Fold in one pose's observation by the paper's pipeline (:func:`evmap.maps.pipeline.fold_observation`)."""
+        from evmap.maps.pipeline import fold_observation  # the pipeline builds on this class
 
         return fold_observation(self, observation, self.config)
 
@@ -534,7 +534,7 @@ class BeliefMap:
         row 0 is the lowest y; ``origin`` is the lower-left corner of cell (0, 0).
         Free evidence from the open space, occupied evidence from every line,
         corner and unidentified object weighted by its belief, combined by the
-        map's rule (see :mod:`maps.occupancy`).
+        map's rule (see :mod:`evmap.maps.occupancy`).
         """
         ix = self._current()
         solid = ix.point_kind != "endpoint"
@@ -562,7 +562,7 @@ class BeliefMap:
     ) -> tuple[Path, Path]:
         """Write the occupancy grid as ``STEM.pgm`` + ``STEM.yaml`` for ROS map_server.
 
-        See :func:`maps.occupancy.write_ros_map`. Returns the two paths.
+        See :func:`evmap.maps.occupancy.write_ros_map`. Returns the two paths.
         """
         masses, origin = self.occupancy_masses(resolution, params)
         return write_ros_map(occupancy_from_masses(masses, params), resolution, origin, path_stem)
@@ -597,7 +597,7 @@ class BeliefMap:
             return _MapReader(name).read(data)
 
     def save(self, path: str | Path) -> None:
-        """Write the map to ``path`` as JSON (``map.json`` of ``shared/SCENARIO.md``), atomically.
+        """Write the map to ``path`` as JSON (``map.json`` of ``docs/SCENARIO.md``), atomically.
 
         Lossless: floats are written in their shortest round-tripping form and
         read back bit-exact; every attribute and the history round-trip (tuples

@@ -33,8 +33,8 @@ from scipy.sparse import coo_array
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from maps.merging import check_segments
-from sources.params import CornerParams
+from evmap.maps.merging import check_segments
+from evmap.sources.params import CornerParams
 
 __all__ = ["Corners", "find_corners"]
 

@@ -1,7 +1,7 @@
 """What a map file holds: JSON values, the open space as GeoJSON, mass functions as ``{FOCAL: float}``.
 
-The pieces :mod:`maps.belief_map` writes and reads ``map.json`` with
-(``shared/SCENARIO.md``): the check that a value JSON carries exactly (so that a
+The pieces :mod:`evmap.maps.belief_map` writes and reads ``map.json`` with
+(``docs/SCENARIO.md``): the check that a value JSON carries exactly (so that a
 save is lossless), the open space to and from GeoJSON-like coordinates, mass
 functions to and from dicts in bulk, and a pause of the garbage collector while
 hundreds of thousands of records are made.

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from sources.params import MatchParams
+from evmap.sources.params import MatchParams
 
 __all__ = ["match_rcds"]
 

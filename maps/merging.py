@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.sparse import coo_array
 from scipy.sparse.csgraph import connected_components
 
-from sources.params import MergeParams
+from evmap.sources.params import MergeParams
 
 __all__ = ["Merged", "check_segments", "merge_segments", "related_pairs"]
 

@@ -17,10 +17,10 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from evidential import combine_batch
-from maps.merging import related_pairs
-from sources.config import Config
-from sources.params import MergeParams
-from sources.relation import relation
+from evmap.maps.merging import related_pairs
+from evmap.sources.config import Config
+from evmap.sources.params import MergeParams
+from evmap.sources.relation import relation
 
 __all__ = ["COMPUTED", "NoiseEvidence", "noise_evidence", "other_poses"]
 
@@ -61,7 +61,7 @@ def noise_evidence(
     any others given in ``features`` (one value per segment; the pipeline gives
     ``lsl_other_poses``, see :func:`other_poses`; 0 when not given).
 
-    >>> from sources.config import load_config
+    >>> from evmap.sources.config import load_config
     >>> room = shapely.box(0, 0, 4, 4)
     >>> ev = noise_evidence(np.array([[1.0, 1.0], [5.0, 0.0]]), np.array([[1.2, 1.0], [5.0, 2.0]]), room, load_config())
     >>> ev.relation.tolist(), ev.eliminated.tolist()
@@ -102,7 +102,7 @@ def other_poses(
     """For each segment p-q, how many other poses saw an LSL segment on it (repeated observation).
 
     A candidate cp-cq from another pose lies on a segment when the two are
-    related as merging relates lines (:func:`maps.merging.related_pairs`:
+    related as merging relates lines (:func:`evmap.maps.merging.related_pairs`:
     directions, offsets and gap within the merging tolerances). A real wall is
     seen again from the next pose; a sunlight phantom, drawn anew for every
     pose, hardly ever is.

@@ -1,9 +1,9 @@
 """What the robot senses from one pose: a rotational sonar scan and the LSL segments.
 
-An :class:`Observation` is the input of :meth:`maps.BeliefMap.update`. It comes
+An :class:`Observation` is the input of :meth:`evmap.maps.BeliefMap.update`. It comes
 from the simulated world (:func:`observe`) or from real sensors: build a
-:class:`~sources.sonar.SonarScan` with :meth:`~sources.sonar.SonarScan.from_readings`
-and an :class:`~sources.lsl.LslSegments` from the extracted line segments.
+:class:`~evmap.sources.sim.sonar.SonarScan` with :meth:`~evmap.sources.sim.sonar.SonarScan.from_readings`
+and an :class:`~evmap.sources.sim.lsl.LslSegments` from the extracted line segments.
 """
 
 from __future__ import annotations
@@ -14,11 +14,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from maps.noise import COMPUTED
-from sources.config import Config
-from sources.lsl import LslSegments, observe_lsl
-from sources.sonar import SonarScan, simulate_scan
-from sources.world import World
+from evmap.maps.noise import COMPUTED
+from evmap.sources.config import Config
+from evmap.sources.sim.lsl import LslSegments, observe_lsl
+from evmap.sources.sim.sonar import SonarScan, simulate_scan
+from evmap.sources.sim.world import World
 
 __all__ = ["SONAR_STREAM", "Observation", "observe"]
 
@@ -38,7 +38,7 @@ class Observation:
     features : further per-segment features for the config's noise-elimination
         sources, name -> one value per LSL segment (a new sensor's reading of
         each segment, say ``{"ir_return": [...]}``); the pipeline computes
-        :data:`maps.noise.COMPUTED` itself.
+        :data:`evmap.maps.noise.COMPUTED` itself.
     """
 
     pose_index: int
@@ -69,8 +69,8 @@ def observe(world: World, pose_index: int, config: Config) -> Observation:
     The scenario's ``sensors`` section overrides the config's sensor parameters;
     all noise comes from the scenario's seed (sonar: stream :data:`SONAR_STREAM`).
 
-    >>> from sources.config import load_config
-    >>> from sources.scenario import default_scenario
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.scenario import default_scenario
     >>> obs = observe(World(default_scenario()), 0, load_config())
     >>> len(obs.sonar), int((obs.lsl.truth == "noise").sum())
     (360, 28)

@@ -3,19 +3,19 @@
 :func:`fold_observation` (``BeliefMap.update``) runs the stages in the paper's order:
 
 1. Open space: the primitive RCDs of the sonar scan, typed I-IV, give this
-   pose's open space, united with the map's (``maps.BeliefMap.open_space``).
+   pose's open space, united with the map's (``evmap.maps.BeliefMap.open_space``).
 2. Noise elimination: the new LSL segments, and the stored ones that the new
    open space reaches, are judged against the united open space
-   (:mod:`maps.noise`); eliminated ones leave the map.
-3. Merging (:mod:`maps.merging`): the surviving segments near the change, and
+   (:mod:`evmap.maps.noise`); eliminated ones leave the map.
+3. Merging (:mod:`evmap.maps.merging`): the surviving segments near the change, and
    every segment of a map line they touch, are merged into lines. A line's
    mass is recomputed from its merged length and relation (its pieces are not
    independent evidence); the sonar evidence of the lines it replaces carries over.
-4. Corners (:mod:`maps.corners`): line ends near the change meet at corners;
+4. Corners (:mod:`evmap.maps.corners`): line ends near the change meet at corners;
    the other ends are free end points.
 5. Simulated sonar from the map, with the same sonar model as the world; RCDs
    of the actual and the simulated scans with the same extractor.
-6. Matching (:mod:`maps.matching`) by direction and mean range.
+6. Matching (:mod:`evmap.maps.matching`) by direction and mean range.
 7. Belief reinforcement: every map object that a simulated direct-echo RCD
    comes from gets the ``reinforcement`` stage's evidence, ``matched`` or
    ``missed``, at most once per pose (a corner or free end passes it on to its
@@ -40,19 +40,19 @@ import shapely
 from numpy.typing import NDArray
 
 from evidential import MassFunction, combine
-from maps.belief_map import BeliefMap
-from maps.corners import find_corners
-from maps.matching import match_rcds
-from maps.merging import Merged, merge_segments
-from maps.noise import COMPUTED, noise_evidence, other_poses
-from maps.observation import Observation
-from maps.segments import SegmentStore
-from sources.config import Config
-from sources.open_space import open_space
-from sources.rcd import Rcds, extract_rcds
-from sources.sonar import SonarScan, simulate_scan
-from sources.surfaces import Surfaces
-from sources.world import cast_rays
+from evmap.maps.belief_map import BeliefMap
+from evmap.maps.corners import find_corners
+from evmap.maps.matching import match_rcds
+from evmap.maps.merging import Merged, merge_segments
+from evmap.maps.noise import COMPUTED, noise_evidence, other_poses
+from evmap.maps.observation import Observation
+from evmap.maps.segments import SegmentStore
+from evmap.sources.config import Config
+from evmap.sources.open_space import open_space
+from evmap.sources.rcd import Rcds, extract_rcds
+from evmap.sources.sim.sonar import SonarScan, simulate_scan
+from evmap.sources.sim.surfaces import Surfaces
+from evmap.sources.sim.world import cast_rays
 
 __all__ = ["PoseOutcome", "fold_observation", "map_surfaces", "new_map"]
 
@@ -93,7 +93,7 @@ class PoseOutcome:
 def new_map(config: Config) -> BeliefMap:
     """An empty belief map for a config: its frame, its rule, no segments yet.
 
-    >>> from sources.config import load_config
+    >>> from evmap.sources.config import load_config
     >>> new_map(load_config())
     BeliefMap(points=0, lines=0, frame=['real', 'noise'], rule='dempster')
     """

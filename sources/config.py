@@ -16,20 +16,20 @@ and no meaning in the order of keys. Its top-level keys:
 ``rule``
     the combination rule, a name in :data:`evidential.RULES` (default ``dempster``).
 ``sources``
-    source name -> a section with ``kind`` (a name in :data:`sources.evidence.KINDS`:
+    source name -> a section with ``kind`` (a name in :data:`evmap.sources.evidence.KINDS`:
     ``table`` or ``ramp``), ``frame``, ``feature`` and the kind's own keys.
 ``stages``
     which sources each stage of the pipeline combines: ``noise_elimination``,
     ``reinforcement``, ``unidentified`` (lists of source names).
 ``sensors``, ``rcd``, ``rcd_figure``, ``open_space``, ``noise``, ``merge``, ``corners``, ``matching``, ``unidentified``
     the parameters of the sensor models and of each stage, validated by the
-    models of :mod:`sources.params`; a missing section takes the models' defaults.
+    models of :mod:`evmap.sources.params`; a missing section takes the models' defaults.
 
 Config files are untrusted input. Limits: at most :data:`MAX_FRAMES` frames of at
 most :data:`MAX_FRAME_ELEMENTS` elements and :data:`MAX_ALIASES` aliases each,
 :data:`MAX_SOURCES` sources, :data:`MAX_STAGE_SOURCES` sources per stage, plus the
-per-source limits of :mod:`sources.evidence` and the file size limit of
-:mod:`sources.loading`. Every error is an :class:`~sources.loading.InputError`
+per-source limits of :mod:`evmap.sources.evidence` and the file size limit of
+:mod:`evmap.sources.loading`. Every error is an :class:`~evmap.sources.loading.InputError`
 naming the file, the key path and the problem; nothing is returned unless the
 whole file is valid.
 """
@@ -44,11 +44,11 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-import configs
+from evmap import configs
 from evidential import RULES, Frame
-from sources.evidence import KINDS, EvidenceSource, Name, SpecError
-from sources.loading import InputError, key_path, load_model, validate
-from sources.params import (
+from evmap.sources.evidence import KINDS, EvidenceSource, Name, SpecError
+from evmap.sources.loading import InputError, key_path, load_model, validate
+from evmap.sources.params import (
     CornerParams,
     LslParams,
     MatchParams,
@@ -166,10 +166,10 @@ class Config:
     aliases : frame name -> {alias: the focal set it names, as written}.
     frame_name : the name of the map's frame, :attr:`frame`.
     rule : the combination rule, a name in :data:`evidential.RULES`.
-    sources : source name -> built :class:`~sources.evidence.EvidenceSource`.
+    sources : source name -> built :class:`~evmap.sources.evidence.EvidenceSource`.
     stages : stage name -> the names of the sources it combines.
     sensors, rcd, rcd_figure, open_space, noise, merge, corners, matching, unidentified :
-        the parameter models of :mod:`sources.params`.
+        the parameter models of :mod:`evmap.sources.params`.
     """
 
     name: str
@@ -236,7 +236,7 @@ def load_config(path: str | Path | None = None) -> Config:
 
     Raises
     ------
-    sources.loading.InputError
+    evmap.sources.loading.InputError
         naming the file, the key path and the problem, if anything in the file is wrong.
 
     Examples

@@ -5,7 +5,7 @@ into their mass functions over the source's frame: a batch, an ``(N, 2**n)``
 float array whose column ``b`` is the focal set with bitmask ``b`` (column 0 is
 the empty set), ready for :func:`evidential.combine_batch`.
 
-Sources are built from YAML (see :mod:`sources.config`). Each *kind* of source is
+Sources are built from YAML (see :mod:`evmap.sources.config`). Each *kind* of source is
 registered by name with :func:`register_kind`: a pydantic model of its YAML
 section and a builder that binds a plain array function to its validated tables
 (``functools.partial``). Two kinds need no Python at all:

@@ -20,9 +20,9 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from sources.params import OpenSpaceParams
-from sources.rcd import TYPE_I, TYPE_IV, Rcds
-from sources.sonar import SonarScan
+from evmap.sources.params import OpenSpaceParams
+from evmap.sources.rcd import TYPE_I, TYPE_IV, Rcds
+from evmap.sources.sim.sonar import SonarScan
 
 __all__ = ["open_space"]
 
@@ -55,8 +55,8 @@ def open_space(scan: SonarScan, rcds: Rcds, params: OpenSpaceParams) -> shapely.
     --------
     A wall 1 m ahead seen as a Type I RCD over 25 deg, nothing else returning:
 
-    >>> from sources.params import RcdParams, SonarParams
-    >>> from sources.rcd import extract_rcds
+    >>> from evmap.sources.params import RcdParams, SonarParams
+    >>> from evmap.sources.rcd import extract_rcds
     >>> ranges = np.full(360, 10.0)
     >>> ranges[np.r_[348:360, 0:13]] = 1.0
     >>> scan = SonarScan.from_readings(np.radians(np.arange(360.0)), ranges, SonarParams())

@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sources.params import RcdParams
-from sources.sonar import SonarScan
+from evmap.sources.params import RcdParams
+from evmap.sources.sim.sonar import SonarScan
 
 __all__ = ["TYPE_I", "TYPE_II", "TYPE_III", "TYPE_IV", "Rcds", "extract_rcds"]
 
@@ -78,7 +78,7 @@ class Rcds:
     def select(self, which: ArrayLike) -> Rcds:
         """The RCDs picked by a boolean mask or an index array.
 
-        >>> from sources.params import SonarParams
+        >>> from evmap.sources.params import SonarParams
         >>> rcds = extract_rcds(SonarScan.from_readings(np.radians([0, 1, 2, 3]), [1, 1, 2, 2], SonarParams()),
         ...                     RcdParams(), primitive=True)
         >>> len(rcds), len(rcds.select(rcds.type == 1))
@@ -132,7 +132,7 @@ def extract_rcds(scan: SonarScan, params: RcdParams, *, primitive: bool = False)
     --------
     A wall at 1 m seen over 25 deg, longer readings around it:
 
-    >>> from sources.params import SonarParams
+    >>> from evmap.sources.params import SonarParams
     >>> ranges = np.r_[np.full(5, 1.5), np.full(25, 1.0), np.full(5, 1.5)]
     >>> scan = SonarScan.from_readings(np.radians(np.arange(35.0)), ranges, SonarParams())
     >>> rcds = extract_rcds(scan, RcdParams())

@@ -6,7 +6,7 @@ partly inside it, or completely inside it. Here the relation is read from the
 share ``f`` of a segment's length that lies in the open space (a shapely
 geometry): ``inside`` if ``f >= inside_fraction``, ``outside`` if
 ``f <= outside_fraction``, else ``partly_inside`` (the thresholds of
-:class:`~sources.params.NoiseParams`, 0.99 and 0.01 by default). The result is a
+:class:`~evmap.sources.params.NoiseParams`, 0.99 and 0.01 by default). The result is a
 categorical feature that the ``sonar_open_space`` table source of the config
 turns into masses.
 
@@ -19,7 +19,7 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
-from sources.params import NoiseParams
+from evmap.sources.params import NoiseParams
 
 __all__ = ["RELATIONS", "inside_fraction", "relation"]
 

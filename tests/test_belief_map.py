@@ -6,8 +6,8 @@ import pytest
 import shapely
 
 from evidential import Frame, MassFunction, TotalConflictError, combine, conflict
-from maps import BeliefMap, Line, Point
-from maps.belief_map import _belief_plausibility
+from evmap.maps import BeliefMap, Line, Point
+from evmap.maps.belief_map import _belief_plausibility
 
 FRAME = Frame(["real", "noise"])
 

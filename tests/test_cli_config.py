@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-import configs
-from maps.cli import main
+from evmap import configs
+from evmap.maps.app.cli import main
 
 HERE = Path(__file__).parent / "configs"
 PAPER = str(configs.path("paper.yaml"))

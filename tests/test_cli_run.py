@@ -8,8 +8,8 @@ import sys
 from pathlib import Path
 
 from evidential import RULES
-from maps.cli import main
-from maps.figures import FIGURE_FILES
+from evmap.maps.app.cli import main
+from evmap.maps.app.figures import FIGURE_FILES
 
 SCENARIOS = Path(__file__).parent / "scenarios"
 SMALL = str(SCENARIOS / "pipeline_small.yaml")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import shapely
 
-from maps.compare import (
+from evmap.maps.app.compare import (
     COLUMNS,
     METRICS,
     add_compare_parser,
@@ -18,10 +18,10 @@ from maps.compare import (
     visible_glass,
     world_metrics,
 )
-from maps.noise import noise_evidence
-from sources.config import load_config
-from sources.scenario import parse_scenario
-from sources.world import World
+from evmap.maps.noise import noise_evidence
+from evmap.sources.config import load_config
+from evmap.sources.sim.scenario import parse_scenario
+from evmap.sources.sim.world import World
 
 RULES = ["dempster", "yager"]
 

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 import yaml
 
-import configs
+from evmap import configs
 from evidential import RULES, Frame
-from sources.config import MAX_FRAME_ELEMENTS, MAX_SOURCES, STAGES, load_config
-from sources.evidence import MAX_BREAK_POINTS, MAX_CATEGORIES, MAX_TABLE_CELLS
-from sources.loading import InputError
+from evmap.sources.config import MAX_FRAME_ELEMENTS, MAX_SOURCES, STAGES, load_config
+from evmap.sources.evidence import MAX_BREAK_POINTS, MAX_CATEGORIES, MAX_TABLE_CELLS
+from evmap.sources.loading import InputError
 
 HERE = Path(__file__).parent / "configs"
 PAPER = configs.path("paper.yaml")

@@ -5,8 +5,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from maps.corners import find_corners
-from sources.params import CornerParams
+from evmap.maps.corners import find_corners
+from evmap.sources.params import CornerParams
 
 
 def _polar(start, angle_deg, length):

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sources.params import LslParams, RcdParams, SonarParams
-from sources.rcd import extract_rcds
-from sources.scenario import default_scenario
-from sources.sonar import simulate_scan
-from sources.world import World, visible
+from evmap.sources.params import LslParams, RcdParams, SonarParams
+from evmap.sources.rcd import extract_rcds
+from evmap.sources.sim.scenario import default_scenario
+from evmap.sources.sim.sonar import simulate_scan
+from evmap.sources.sim.world import World, visible
 
 
 @pytest.fixture(scope="module")

@@ -11,10 +11,10 @@ import shapely
 from hypothesis import given
 from hypothesis import strategies as st
 
-import configs
+from evmap import configs
 from evidential import Frame, combine_batch
-from sources.config import load_config
-from sources.evidence import (
+from evmap.sources.config import load_config
+from evmap.sources.evidence import (
     KINDS,
     BoundSource,
     EvidenceSource,
@@ -25,8 +25,8 @@ from sources.evidence import (
     register_kind,
     table_masses,
 )
-from sources.params import NoiseParams
-from sources.relation import RELATIONS, inside_fraction, relation
+from evmap.sources.params import NoiseParams
+from evmap.sources.relation import RELATIONS, inside_fraction, relation
 
 FRAME = Frame(["real", "noise"])
 LSL = partial(ramp_masses, x=np.array([0.0, 0.4]), y=np.array([0.0, 0.6]), focal=1, rest=np.array([0, 0, 0, 1.0]))

@@ -1,4 +1,4 @@
-"""The figures of the paper's pipeline (maps.figures) on the default scenario and a two-pose one."""
+"""The figures of the paper's pipeline (maps.app.figures) on the default scenario and a two-pose one."""
 
 from __future__ import annotations
 
@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from maps import figures
-from maps.run import Run, run_scenario
-from sources.config import load_config
-from sources.rcd import extract_rcds
-from sources.scenario import default_scenario, load_scenario, parse_scenario
+from evmap.maps.app import figures
+from evmap.maps.app.run import Run, run_scenario
+from evmap.sources.config import load_config
+from evmap.sources.rcd import extract_rcds
+from evmap.sources.sim.scenario import default_scenario, load_scenario, parse_scenario
 
 TWO_POSES = Path(__file__).parent / "scenarios" / "figures_two_poses.yaml"
 PER_POSE = [f for f in figures.FIGURE_FILES.values() if f not in (figures.merged_map_figure, figures.final_map_figure)]
@@ -226,9 +226,10 @@ def test_write_figures_writes_one_png_per_figure(two_poses: Run, tmp_path: Path)
 
 def test_figures_leave_pyplot_alone() -> None:
     code = (
-        "import sys, maps.figures, maps.run, sources.config, sources.scenario;"
-        "run = maps.run.run_scenario(sources.scenario.default_scenario(), sources.config.load_config());"
-        "maps.figures.final_map_figure(run);"
+        "import sys, evmap.maps.app.figures, evmap.maps.app.run, evmap.sources.config, evmap.sources.sim.scenario;"
+        "run = evmap.maps.app.run.run_scenario(evmap.sources.sim.scenario.default_scenario(),"
+        " evmap.sources.config.load_config());"
+        "evmap.maps.app.figures.final_map_figure(run);"
         "print('matplotlib.pyplot' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

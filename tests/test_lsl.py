@@ -8,7 +8,7 @@ import shapely
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from sources.lsl import (
+from evmap.sources.sim.lsl import (
     LSL_NOISE_STREAM,
     LslSegments,
     concat_segments,
@@ -18,9 +18,9 @@ from sources.lsl import (
     observe_lsl_all,
     stripe_scan,
 )
-from sources.params import LslParams, SonarParams
-from sources.scenario import Robot, Scenario, load_scenario
-from sources.world import World, cast_rays, visible, wall_id
+from evmap.sources.params import LslParams, SonarParams
+from evmap.sources.sim.scenario import Robot, Scenario, load_scenario
+from evmap.sources.sim.world import World, cast_rays, visible, wall_id
 
 HERE = Path(__file__).parent / "scenarios"
 NOISE_FREE = LslParams(range_noise=0)

@@ -11,9 +11,9 @@ import pytest
 import shapely
 
 from evidential import Frame, MassFunction
-from maps import BeliefMap, MapFileError
-from maps.occupancy import OccupancyParams
-from sources.loading import InputError
+from evmap.maps import BeliefMap, MapFileError
+from evmap.maps.occupancy import OccupancyParams
+from evmap.sources.loading import InputError
 
 FRAME = Frame(["real", "noise"])
 

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from maps.matching import match_rcds
-from sources.params import MatchParams
+from evmap.maps.matching import match_rcds
+from evmap.sources.params import MatchParams
 
 deg = np.radians
 DEFAULT_MATCH = MatchParams()

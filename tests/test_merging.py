@@ -5,9 +5,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from maps.merging import check_segments, merge_segments, related_pairs
-from maps.noise import other_poses
-from sources.params import MergeParams
+from evmap.maps.merging import check_segments, merge_segments, related_pairs
+from evmap.maps.noise import other_poses
+from evmap.sources.params import MergeParams
 
 DEFAULT_MERGE = MergeParams()
 

@@ -7,8 +7,8 @@ import shapely
 import yaml
 
 from evidential import Frame, MassFunction, combine, combine_batch
-from maps import BeliefMap
-from maps.occupancy import (
+from evmap.maps import BeliefMap
+from evmap.maps.occupancy import (
     GRID_FRAME,
     OccupancyParams,
     evidential_grid,

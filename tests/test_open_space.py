@@ -7,13 +7,13 @@ import shapely
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sources.open_space import open_space
-from sources.params import OpenSpaceParams, RcdParams, SonarParams
-from sources.rcd import extract_rcds
-from sources.scenario import parse_scenario
-from sources.sonar import SonarScan, simulate_scan
-from sources.surfaces import Surfaces
-from sources.world import World
+from evmap.sources.open_space import open_space
+from evmap.sources.params import OpenSpaceParams, RcdParams, SonarParams
+from evmap.sources.rcd import extract_rcds
+from evmap.sources.sim.scenario import parse_scenario
+from evmap.sources.sim.sonar import SonarScan, simulate_scan
+from evmap.sources.sim.surfaces import Surfaces
+from evmap.sources.sim.world import World
 
 NO_FOOT = OpenSpaceParams(footprint_radius=0.0)
 

@@ -2,7 +2,7 @@
 
 The expectations of the default corridor, the noise-elimination masses of
 Table 1 and equation (2) worked by hand, the run artefacts of
-``shared/SCENARIO.md`` (``segments.json``, ``map.json``), a saved map that
+``docs/SCENARIO.md`` (``segments.json``, ``map.json``), a saved map that
 keeps folding observations, and Yager's rule against Dempster's.
 """
 
@@ -15,16 +15,16 @@ import numpy as np
 import pytest
 import shapely
 
-import configs
-from maps.belief_map import POINT_KINDS, BeliefMap
-from maps.noise import noise_evidence
-from maps.observation import observe
-from maps.pipeline import new_map
-from maps.run import Run, report, run_scenario, segment_records
-from sources.config import load_config
-from sources.relation import RELATIONS
-from sources.scenario import default_scenario, load_scenario
-from sources.world import World
+from evmap import configs
+from evmap.maps.belief_map import POINT_KINDS, BeliefMap
+from evmap.maps.noise import noise_evidence
+from evmap.maps.observation import observe
+from evmap.maps.pipeline import new_map
+from evmap.maps.app.run import Run, report, run_scenario, segment_records
+from evmap.sources.config import load_config
+from evmap.sources.relation import RELATIONS
+from evmap.sources.sim.scenario import default_scenario, load_scenario
+from evmap.sources.sim.world import World
 
 FOCALS = ("", "real", "noise", "real|noise")
 """The focal sets over the frame {real, noise}, by bitmask."""

@@ -3,13 +3,13 @@
 import numpy as np
 import pytest
 
-import configs
-from maps.corners import find_corners
-from maps.merging import merge_segments
-from maps.run import run_scenario
-from sources.config import load_config
-from sources.relation import relation
-from sources.scenario import load_scenario
+from evmap import configs
+from evmap.maps.corners import find_corners
+from evmap.maps.merging import merge_segments
+from evmap.maps.app.run import run_scenario
+from evmap.sources.config import load_config
+from evmap.sources.relation import relation
+from evmap.sources.sim.scenario import load_scenario
 
 
 @pytest.fixture(scope="module")

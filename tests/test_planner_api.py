@@ -9,7 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from evidential import Frame, MassFunction
-from maps import BeliefMap
+from evmap.maps import BeliefMap
 
 FRAME = Frame(["real", "noise"])
 

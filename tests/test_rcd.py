@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sources.params import RcdParams, SonarParams
-from sources.rcd import extract_rcds
-from sources.sonar import SonarScan
+from evmap.sources.params import RcdParams, SonarParams
+from evmap.sources.rcd import extract_rcds
+from evmap.sources.sim.sonar import SonarScan
 
 PARAMS = RcdParams()
 

@@ -9,10 +9,10 @@ import shapely
 from hypothesis import given
 from hypothesis import strategies as st
 
-import configs
-from sources.loading import InputError
-from sources.params import LslParams, SonarParams
-from sources.scenario import (
+from evmap import configs
+from evmap.sources.loading import InputError
+from evmap.sources.params import LslParams, SonarParams
+from evmap.sources.sim.scenario import (
     BUILTIN_MATERIALS,
     MAX_CYLINDERS,
     MAX_POSES,

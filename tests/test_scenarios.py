@@ -26,14 +26,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import configs
+from evmap import configs
 from evidential import MassFunction, combine
-from maps.belief_map import Line
-from maps.run import Run, report, run_scenario
-from sources.config import config_from_data, load_config
-from sources.relation import relation
-from sources.scenario import load_scenario
-from sources.world import World, cast_rays
+from evmap.maps.belief_map import Line
+from evmap.maps.app.run import Run, report, run_scenario
+from evmap.sources.config import config_from_data, load_config
+from evmap.sources.relation import relation
+from evmap.sources.sim.scenario import load_scenario
+from evmap.sources.sim.world import World, cast_rays
 
 SCENARIOS = ("office", "hall", "lab", "patrol")
 

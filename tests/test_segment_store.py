@@ -3,14 +3,14 @@
 import numpy as np
 import pytest
 
-import configs
+from evmap import configs
 from evidential import Frame
-from maps.observation import Observation, observe
-from maps.pipeline import new_map
-from maps.segments import SegmentStore
-from sources.config import load_config
-from sources.scenario import default_scenario
-from sources.world import World
+from evmap.maps.observation import Observation, observe
+from evmap.maps.pipeline import new_map
+from evmap.maps.segments import SegmentStore
+from evmap.sources.config import load_config
+from evmap.sources.sim.scenario import default_scenario
+from evmap.sources.sim.world import World
 
 FRAME = Frame(["real", "noise"])
 

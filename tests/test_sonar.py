@@ -10,10 +10,10 @@ import shapely
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from sources.params import RcdParams, SonarParams
-from sources.rcd import extract_rcds
-from sources.sonar import ScanError, SonarScan, simulate_scan
-from sources.surfaces import Surfaces
+from evmap.sources.params import RcdParams, SonarParams
+from evmap.sources.rcd import extract_rcds
+from evmap.sources.sim.sonar import ScanError, SonarScan, simulate_scan
+from evmap.sources.sim.surfaces import Surfaces
 
 PARAMS = SonarParams()
 

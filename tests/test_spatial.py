@@ -4,7 +4,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from maps.spatial import GridIndex
+from evmap.maps.spatial import GridIndex
 
 coordinate = st.floats(-50.0, 50.0, allow_nan=False)
 

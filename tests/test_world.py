@@ -8,8 +8,8 @@ import shapely
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from sources.scenario import Scenario, load_scenario
-from sources.world import World, cast_rays, visible, wall_id
+from evmap.sources.sim.scenario import Scenario, load_scenario
+from evmap.sources.sim.world import World, cast_rays, visible, wall_id
 
 HERE = Path(__file__).parent / "scenarios"
 

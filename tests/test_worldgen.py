@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import shapely
 
-from sources.scenario import parse_scenario
-from sources.world import World, visible
-from sources.worldgen import WorldGenParams, generate_world, scenario_yaml, wall_segment_count, world_seed
+from evmap.sources.sim.scenario import parse_scenario
+from evmap.sources.sim.world import World, visible
+from evmap.sources.sim.worldgen import WorldGenParams, generate_world, scenario_yaml, wall_segment_count, world_seed
 
 SEEDS = range(24)
 

@@ -1,6 +1,6 @@
 """The figures of the paper's pipeline (Figs. 2 and 4-7), one matplotlib figure per stage.
 
-Each function takes a :class:`~maps.run.Run` and returns a
+Each function takes a :class:`~evmap.maps.app.run.Run` and returns a
 :class:`matplotlib.figure.Figure` on an Agg canvas: no pyplot, so no global
 figure state, and a figure is freed when its last reference goes. The figures
 of one observation take the index of the pose to show (``pose=0``); the map
@@ -51,11 +51,11 @@ from matplotlib.patches import Circle, Patch, PathPatch, Polygon
 from matplotlib.path import Path as MplPath
 from numpy.typing import NDArray
 
-from maps.observation import Observation
-from maps.pipeline import PoseOutcome
-from maps.run import Run
-from sources.rcd import Rcds, extract_rcds
-from sources.sonar import SonarScan
+from evmap.maps.observation import Observation
+from evmap.maps.pipeline import PoseOutcome
+from evmap.maps.app.run import Run
+from evmap.sources.rcd import Rcds, extract_rcds
+from evmap.sources.sim.sonar import SonarScan
 
 __all__ = [
     "FIGURE_FILES",
@@ -109,9 +109,9 @@ def sonar_scan_figure(run: Run, pose: int = 0) -> Figure:
     A dot per return (time of flight), a ray every 10th return, and each RCD as
     an arc at its mean range over its width, coloured by type and numbered.
 
-    >>> from sources.config import load_config
-    >>> from sources.scenario import default_scenario
-    >>> from maps.run import run_scenario
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.scenario import default_scenario
+    >>> from evmap.maps.app.run import run_scenario
     >>> fig = sonar_scan_figure(run_scenario(default_scenario(), load_config()))
     >>> fig.axes[0].get_xlabel()
     'x (m)'
@@ -480,9 +480,9 @@ def write_figures(run: Run, directory: str | Path, *, pose: int = 0, dpi: int = 
     figures show the map after every pose). The directory must exist.
 
     >>> import tempfile
-    >>> from sources.config import load_config
-    >>> from sources.scenario import default_scenario
-    >>> from maps.run import run_scenario
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.scenario import default_scenario
+    >>> from evmap.maps.app.run import run_scenario
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     [path.name for path in write_figures(run_scenario(default_scenario(), load_config()), tmp)][:2]
     ['fig2_sonar_scan_rcds.png', 'fig4_lsl_lines.png']

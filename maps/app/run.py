@@ -2,7 +2,7 @@
 
 :func:`run_scenario` is what ``evmap run`` computes; :func:`report` and
 :func:`segment_records` give ``report.json`` and ``segments.json`` of
-``shared/SCENARIO.md``.
+``docs/SCENARIO.md``.
 """
 
 from __future__ import annotations
@@ -13,13 +13,13 @@ from typing import Any
 
 import numpy as np
 
-from maps.belief_map import BeliefMap
-from maps.observation import Observation, observe
-from maps.pipeline import PoseOutcome, new_map
-from maps.segments import SegmentStore
-from sources.config import Config
-from sources.scenario import Scenario
-from sources.world import World
+from evmap.maps.belief_map import BeliefMap
+from evmap.maps.observation import Observation, observe
+from evmap.maps.pipeline import PoseOutcome, new_map
+from evmap.maps.segments import SegmentStore
+from evmap.sources.config import Config
+from evmap.sources.sim.scenario import Scenario
+from evmap.sources.sim.world import World
 
 __all__ = ["Run", "report", "run_scenario", "segment_records"]
 
@@ -46,8 +46,8 @@ class Run:
 def run_scenario(scenario: Scenario, config: Config) -> Run:
     """Simulate the scenario's sensors at every pose and fold each pose into one belief map.
 
-    >>> from sources.config import load_config
-    >>> from sources.scenario import default_scenario
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.scenario import default_scenario
     >>> run = run_scenario(default_scenario(), load_config())
     >>> run.map.rule, len(run.outcomes)
     ('dempster', 1)
@@ -64,7 +64,7 @@ def run_scenario(scenario: Scenario, config: Config) -> Run:
 
 
 def report(run: Run) -> dict[str, Any]:
-    """The figures of ``report.json`` (``shared/SCENARIO.md``)."""
+    """The figures of ``report.json`` (``docs/SCENARIO.md``)."""
     store: SegmentStore = run.map.segments
     noise = store.truth == "noise"
     real = store.truth == "real"

@@ -18,7 +18,7 @@ The model, per snapshot ``k`` (centred on heading + ``k * step_deg``):
    short segments); each other piece is fitted by total least squares and clipped
    to its extreme points. A long wall thus arrives as several short, overlapping
    segments, one or more per snapshot, as in the paper's Fig. 4.
-3. Sunlight phantoms (:func:`observe_lsl`, ``shared/SCENARIO.md``): a region
+3. Sunlight phantoms (:func:`observe_lsl`, ``docs/SCENARIO.md``): a region
    whose centroid is within ``max_range`` of the pose and in sight (the line to
    it crosses no LSL-opaque surface) adds its ``lines`` phantom segments, drawn
    anew for the pose and delivered as they are. Each is assigned the snapshot
@@ -38,9 +38,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .params import LslParams
-from .surfaces import Surfaces
-from .world import World, cast_rays, visible
+from evmap.sources.params import LslParams
+from evmap.sources.sim.surfaces import Surfaces
+from evmap.sources.sim.world import World, cast_rays, visible
 
 __all__ = [
     "LSL_NOISE_STREAM",
@@ -148,7 +148,7 @@ def stripe_scan(
     With ``rng`` None the ranges are noise-free. One standard normal is drawn per
     ray, hit or not, so the noise of a ray does not depend on the world.
 
-    >>> from sources.scenario import parse_scenario
+    >>> from evmap.sources.sim.scenario import parse_scenario
     >>> world = World(parse_scenario('''{version: 1, name: w, robot: {poses: [[0, 0, 0]]},
     ...   world: {walls: [{id: w, points: [[2, -5], [2, 5]]}]}}''', "w.yaml"))
     >>> scan = stripe_scan(world.surfaces(), world.poses[0], LslParams(snapshots=2, step_deg=90))
@@ -287,7 +287,7 @@ def lsl_segments(
 
     With ``rng`` None the scan is noise-free; ``pose_index`` fills the ``pose`` field.
 
-    >>> from sources.scenario import parse_scenario
+    >>> from evmap.sources.sim.scenario import parse_scenario
     >>> world = World(parse_scenario('''{version: 1, name: w, robot: {poses: [[0, 0, 0]]},
     ...   world: {walls: [{id: w, points: [[2, -5], [2, 5]]}]}}''', "w.yaml"))
     >>> segs = lsl_segments(world.surfaces(), world.poses[0], LslParams())
@@ -349,7 +349,7 @@ def _sunlight(world: World, pose_index: int, params: LslParams) -> LslSegments:
 def observe_lsl(world: World, pose_index: int, params: LslParams) -> LslSegments:
     """All LSL segments seen from one of the world's poses: real ones, then sunlight phantoms.
 
-    >>> from sources.scenario import default_scenario
+    >>> from evmap.sources.sim.scenario import default_scenario
     >>> segs = observe_lsl(World(default_scenario()), 0, LslParams())
     >>> int((segs.truth == "noise").sum()), bool((segs.length[segs.truth == "noise"] <= 0.35).all())
     (28, True)

@@ -1,4 +1,4 @@
-"""Writing a run's artefacts (``shared/SCENARIO.md``) into a directory, all or nothing.
+"""Writing a run's artefacts (``docs/SCENARIO.md``) into a directory, all or nothing.
 
 Everything is written into a temporary directory beside the target and moved
 into place at the end, so a failed run leaves no directory behind, and an
@@ -14,8 +14,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from maps.figures import write_figures
-from maps.run import Run, report, segment_records
+from evmap.maps.app.figures import write_figures
+from evmap.maps.app.run import Run, report, segment_records
 
 __all__ = ["prepare_out", "write_artefacts"]
 

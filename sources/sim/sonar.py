@@ -33,7 +33,7 @@ Every reading records the object that made it (the segment, vertex or cylinder i
 for a multiple reflection the first wall) and its reflection order (0: no echo, at
 max range; 1: direct; 2: a double bounce; -1: unknown, for measured data).
 
-The same :func:`simulate_scan` runs on any :class:`~sources.surfaces.Surfaces`: the
+The same :func:`simulate_scan` runs on any :class:`~evmap.sources.sim.surfaces.Surfaces`: the
 simulated world, or the line-corner map from which the fusion stage predicts a scan.
 """
 
@@ -45,8 +45,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sources.params import SonarParams
-from sources.surfaces import Surfaces
+from evmap.sources.params import SonarParams
+from evmap.sources.sim.surfaces import Surfaces
 
 __all__ = ["ScanError", "SonarScan", "simulate_scan"]
 
@@ -87,7 +87,7 @@ class SonarScan:
         cylinder id; for a multiple reflection the first wall); ``""`` for none or unknown.
     order : (M,) int: reflection order: 0 no echo (max range), 1 direct, 2 double
         bounce, -1 unknown (measured data).
-    params : the sensor's :class:`~sources.params.SonarParams`.
+    params : the sensor's :class:`~evmap.sources.params.SonarParams`.
 
     Construction validates the arrays (the one place where raw readings are
     checked): a NaN or negative range, a non-finite angle, duplicate or unordered
@@ -104,7 +104,7 @@ class SonarScan:
     >>> SonarScan.from_readings([0.0, 0.0], [1.0, 1.0], SonarParams())
     Traceback (most recent call last):
     ...
-    sources.sonar.ScanError: angles[1] = 0.0 is not greater than angles[0] = 0.0: angles must be strictly increasing
+    sources.sim.sonar.ScanError: angles[1] = 0.0 is not greater than angles[0] = 0.0: angles must be strictly increasing
     """
 
     pose: NDArray[np.float64]

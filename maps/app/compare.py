@@ -1,7 +1,7 @@
 """Comparing combination rules on many generated worlds with ground truth (``evmap compare``).
 
 Every rule runs on every world with the same scans: each world
-(:func:`sources.worldgen.generate_world`) is sensed once, from all its poses,
+(:func:`evmap.sources.sim.worldgen.generate_world`) is sensed once, from all its poses,
 and the same observations are folded into one belief map per rule
 (:func:`fuse_rules`). Per world and rule (:func:`world_metrics`):
 
@@ -29,8 +29,8 @@ the worlds, taken in world order, so every column but the ``seconds...`` ones is
 the same whatever the parallelism (:func:`run_comparison`: a Dask cluster,
 local by default, or one of Dask's local schedulers).
 
->>> from sources.config import load_config
->>> from sources.worldgen import generate_world
+>>> from evmap.sources.config import load_config
+>>> from evmap.sources.sim.worldgen import generate_world
 >>> runs = fuse_rules(generate_world(2), load_config(), ["dempster", "yager"])
 >>> sorted(runs), runs["dempster"].observations is runs["yager"].observations
 (['dempster', 'yager'], True)
@@ -60,14 +60,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evidential import RULES
-from maps.observation import observe
-from maps.pipeline import fold_observation, new_map
-from maps.run import Run
-from sources.config import Config, load_config
-from sources.scenario import Scenario
-from sources.surfaces import Surfaces
-from sources.world import World, cast_rays
-from sources.worldgen import WorldGenParams, generate_world, scenario_yaml, world_seed
+from evmap.maps.observation import observe
+from evmap.maps.pipeline import fold_observation, new_map
+from evmap.maps.app.run import Run
+from evmap.sources.config import Config, load_config
+from evmap.sources.sim.scenario import Scenario
+from evmap.sources.sim.surfaces import Surfaces
+from evmap.sources.sim.world import World, cast_rays
+from evmap.sources.sim.worldgen import WorldGenParams, generate_world, scenario_yaml, world_seed
 
 __all__ = [
     "BELIEF_BINS",
@@ -131,7 +131,7 @@ _TRUTHS = ("real", "noise")
 def fuse_rules(scenario: Scenario, config: Config, rules: Sequence[str]) -> dict[str, Run]:
     """Sense the scenario once from every pose, then fold the same observations into one map per rule.
 
-    Each :class:`~maps.run.Run` shares the world and the observations; its
+    Each :class:`~evmap.maps.app.run.Run` shares the world and the observations; its
     ``seconds`` are ``simulate`` (shared), ``fuse`` (this rule) and ``total``.
     """
     world = World(scenario)
@@ -193,8 +193,8 @@ def visible_glass(world: World, config: Config) -> NDArray[np.intp]:
     sonar's ``max_range`` (the scenario's, else the config's), and the sight
     line to it crosses no other surface (wall or cylinder, whatever its material).
 
-    >>> from sources.config import load_config
-    >>> from sources.scenario import default_scenario
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.scenario import default_scenario
     >>> world = World(default_scenario())
     >>> world.surfaces().segment_ids[visible_glass(world, load_config())].tolist()  # window 2 is beside the pose
     ['east-window-1']
@@ -226,7 +226,7 @@ def map_error(p: Sequence[Any], q: Sequence[Any], surfaces: Surfaces) -> float |
     Each line gives ``ceil(length / step) + 1`` evenly spaced points, both ends
     included; ``None`` when there are no lines.
 
-    >>> from sources.scenario import default_scenario
+    >>> from evmap.sources.sim.scenario import default_scenario
     >>> s = World(default_scenario()).surfaces()
     >>> round(map_error([(1.0, 0.1)], [(2.0, 0.1)], s), 6)
     0.1
@@ -250,8 +250,8 @@ def map_error(p: Sequence[Any], q: Sequence[Any], surfaces: Surfaces) -> float |
 def line_beliefs(run: Run) -> tuple[NDArray[np.float64], NDArray[np.str_]]:
     """Per segment: Bel(real) of the map line it ended in (0 if eliminated), and its truth.
 
-    >>> from sources.config import load_config
-    >>> from sources.worldgen import generate_world
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.worldgen import generate_world
     >>> belief, truth = line_beliefs(fuse_rules(generate_world(2), load_config(), ["dempster"])["dempster"])
     >>> belief.shape == truth.shape, bool(((belief >= 0) & (belief <= 1)).all())
     (True, True)

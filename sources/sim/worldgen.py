@@ -15,10 +15,10 @@ rectangles (corridor, rooms, door openings through a wall of
 cut into polylines where the material changes. Coordinates are multiples of
 :attr:`WorldGenParams.grid` (5 cm), rounded to millimetres, so the YAML of
 :func:`scenario_yaml` is short and exact. The result is validated by
-:class:`sources.scenario.Scenario`; the scenario's ``seed`` is the generator's seed,
+:class:`evmap.sources.sim.scenario.Scenario`; the scenario's ``seed`` is the generator's seed,
 so its sensor noise and sunlight lines derive from the same number.
 
->>> from sources.scenario import parse_scenario
+>>> from evmap.sources.sim.scenario import parse_scenario
 >>> s = generate_world(3)
 >>> s.name, s.seed, len(s.robot.poses) >= 1, len(s.world.sunlight) >= 1
 ('world-3', 3, True, True)
@@ -38,8 +38,8 @@ import shapely
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from .loading import validate
-from .scenario import Scenario
+from evmap.sources.loading import validate
+from evmap.sources.sim.scenario import Scenario
 
 __all__ = ["WorldGenParams", "generate_world", "scenario_yaml", "wall_segment_count", "world_seed"]
 
@@ -145,7 +145,7 @@ def scenario_yaml(scenario: Scenario) -> str:
 
     Only the keys the scenario was given are written (defaults stay implicit).
 
-    >>> from sources.scenario import parse_scenario
+    >>> from evmap.sources.sim.scenario import parse_scenario
     >>> text = "{version: 1, name: box, world: {walls: [{id: w, points: [[0, 0], [1, 0]]}]}, "
     >>> text += "robot: {poses: [[0, 1, 0]]}}"
     >>> print(scenario_yaml(parse_scenario(text, "x")))

@@ -3,11 +3,11 @@
 ``evmap run [SCENARIO] [--config FILE] [--rule NAME] [--out DIR] [--force] [--json]``
     run the paper's experiment on a scenario (default: the embedded corridor)
     and write ``report.json``, ``segments.json``, ``map.json`` and the figures
-    into DIR (``shared/SCENARIO.md``); ``--json`` also prints the report on
+    into DIR (``docs/SCENARIO.md``); ``--json`` also prints the report on
     standard output, and nothing else goes there.
 ``evmap compare --rules dempster,yager,... --worlds N --seed S --out DIR [--scheduler ADDRESS]``
     every rule on the same scans of N generated worlds: per-rule and per-world
-    tables (CSV, Markdown) and plots (see :mod:`maps.compare`).
+    tables (CSV, Markdown) and plots (see :mod:`evmap.maps.app.compare`).
 ``evmap config check [FILE]``
     validate a config file and print every frame, source, table and stage
     parameter as it was understood.
@@ -35,11 +35,11 @@ from numpy.typing import NDArray
 from pydantic import BaseModel
 
 from evidential import Frame, TotalConflictError, combine_batch
-from maps.artefacts import prepare_out, write_artefacts
-from maps.compare import add_compare_parser
-from maps.run import run_scenario
-from sources.config import PARAMETER_SECTIONS, Config, SensorsParams, load_config
-from sources.scenario import default_scenario, load_scenario
+from evmap.maps.app.artefacts import prepare_out, write_artefacts
+from evmap.maps.app.compare import add_compare_parser
+from evmap.maps.app.run import run_scenario
+from evmap.sources.config import PARAMETER_SECTIONS, Config, SensorsParams, load_config
+from evmap.sources.sim.scenario import default_scenario, load_scenario
 
 __all__ = ["build_parser", "config_check", "config_explain", "main", "run_command"]
 

@@ -1,8 +1,8 @@
-"""Scenario files: the world, the robot's poses and the sensor hardware (``shared/SCENARIO.md``).
+"""Scenario files: the world, the robot's poses and the sensor hardware (``docs/SCENARIO.md``).
 
 A scenario file is untrusted input. It is read with the safe YAML loader of
-:mod:`sources.loading` and validated by the pydantic models below, every model
-with ``extra="forbid"``; any problem raises :class:`~sources.loading.InputError`
+:mod:`evmap.sources.loading` and validated by the pydantic models below, every model
+with ``extra="forbid"``; any problem raises :class:`~evmap.sources.loading.InputError`
 naming the file, the key path (``world.walls[3].points``) or the line and column,
 and what is wrong. Sizes are checked against the limits below before anything
 else is validated, so an absurd file costs no work.
@@ -10,7 +10,7 @@ else is validated, so an absurd file costs no work.
 Checks beyond the types: unknown keys, unknown materials, polylines with fewer
 than two points, zero-length segments, non-finite numbers, a pose inside a
 cylinder, duplicate ids (walls and cylinders share one namespace, and an id
-holds no ``:``, which :mod:`sources.world` uses to name a wall's segments), a
+holds no ``:``, which :mod:`evmap.sources.sim.world` uses to name a wall's segments), a
 sunlight polygon that is not a simple polygon of positive area, and a sunlight
 length range that is empty or too long for its polygon (see :data:`MIN_FIT_RATE`).
 
@@ -36,10 +36,10 @@ import shapely
 from numpy.typing import NDArray
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
-import configs
+from evmap import configs
 
-from .loading import load_model, read_yaml, validate
-from .params import LslParams, SonarParams
+from evmap.sources.loading import load_model, read_yaml, validate
+from evmap.sources.params import LslParams, SonarParams
 
 __all__ = [
     "BUILTIN_MATERIALS",
@@ -281,7 +281,7 @@ class Sensors(_Model):
 
 
 class Scenario(_Model):
-    """A scenario file, validated (``shared/SCENARIO.md``, version 1)."""
+    """A scenario file, validated (``docs/SCENARIO.md``, version 1)."""
 
     version: Literal[1]
     name: str = Field(max_length=200)
@@ -395,7 +395,7 @@ def parse_scenario(text: str, name: str) -> Scenario:
     >>> parse_scenario("version: 1\\nname: x\\nworld: {walls: []}\\nrobot: {poses: []}", "x.yaml")
     Traceback (most recent call last):
     ...
-    sources.loading.InputError: x.yaml: robot.poses: List should have at least 1 item after validation, not 0 (got [])
+    evmap.sources.loading.InputError: x.yaml: robot.poses: List should have at least 1 item after validation, not 0 (got [])
     """
     return validate(Scenario, read_yaml(text, name), name)
 

@@ -1,7 +1,7 @@
 """The simulated world of a scenario, and the ray geometry the sensor models use on it.
 
-A :class:`World` is a validated :class:`~sources.scenario.Scenario` resolved into
-arrays: materials looked up, walls joined into :class:`~sources.surfaces.Surfaces`
+A :class:`World` is a validated :class:`~evmap.sources.sim.scenario.Scenario` resolved into
+arrays: materials looked up, walls joined into :class:`~evmap.sources.sim.surfaces.Surfaces`
 (the ground truth the sensors measure, and what evaluation compares against),
 poses in radians, sunlight regions.
 
@@ -13,7 +13,7 @@ Segment ``k`` (from point ``k`` to ``k + 1``) of wall ``W`` is ``"W:k"``, or jus
 sonar reading's target tells a corner from a wall). A cylinder keeps its id.
 Scenario ids hold no ``:``, so :func:`wall_id` maps a segment or vertex id back to its wall.
 
->>> from sources.scenario import parse_scenario
+>>> from evmap.sources.sim.scenario import parse_scenario
 >>> world = World(parse_scenario('''
 ... version: 1
 ... name: corner
@@ -40,8 +40,8 @@ from scipy.sparse import coo_array
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .scenario import Material, Scenario, Sunlight
-from .surfaces import Surfaces
+from evmap.sources.sim.scenario import Material, Scenario, Sunlight
+from evmap.sources.sim.surfaces import Surfaces
 
 __all__ = ["VERTEX_TOLERANCE", "World", "cast_rays", "visible", "wall_id"]
 
@@ -65,9 +65,9 @@ class World:
     ----------
     scenario : the validated scenario.
     name : str; seed : int, the root of all randomness.
-    materials : dict of material name to :class:`~sources.scenario.Material`, built-ins overridden.
+    materials : dict of material name to :class:`~evmap.sources.sim.scenario.Material`, built-ins overridden.
     poses : (P, 3) float array of ``x, y, heading`` (metres, radians).
-    sunlight : tuple of the scenario's :class:`~sources.scenario.Sunlight` regions.
+    sunlight : tuple of the scenario's :class:`~evmap.sources.sim.scenario.Sunlight` regions.
     sunlight_centroids : (S, 2) float array, each region's polygon centroid.
     """
 
@@ -218,7 +218,7 @@ def visible(surfaces: Surfaces, origin: ArrayLike, targets: ArrayLike) -> NDArra
     A surface through the origin or through the target itself (within a relative
     1e-9 of the distance or radius) does not hide it; transparent surfaces never do.
 
-    >>> from sources.scenario import parse_scenario
+    >>> from evmap.sources.sim.scenario import parse_scenario
     >>> world = World(parse_scenario('''
     ... {version: 1, name: v, robot: {poses: [[0, 0, 0]]},
     ...  world: {walls: [{id: a, points: [[1, -1], [1, 1]]}, {id: g, points: [[-1, -1], [-1, 1]], material: glass}]}}

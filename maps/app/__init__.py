@@ -1,0 +1,1 @@
+"""The application: the command line, runs of scenarios, their artefacts, figures and comparisons."""
