@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 from evmap.maps.observation import observe
-from evmap.maps.pipeline import new_map
+from evmap.maps import new_map
 from evmap.maps.app.run import run_scenario
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import default_scenario

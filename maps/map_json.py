@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 import shapely
+from numpy.typing import NDArray
 
 from evidential import Frame, MassFunction
 
@@ -74,6 +75,11 @@ class MassCodec:
                 labels = labels_of[key] = [self.frame.label(k) for k in masks.tolist()]
             out.append(dict(zip(labels, m.masses.tolist())))  # (zip's strict=True would cost a third)
         return out
+
+    def encode_rows(self, rows: NDArray[np.float64]) -> list[dict[str, float]]:
+        """``{FOCAL: float}`` of each dense row (columns by bitmask), zero masses left out: ``{}`` for a zero row."""
+        labels = [self.frame.label(k) for k in range(rows.shape[1])] if rows.ndim == 2 else []
+        return [{labels[j]: v for j, v in enumerate(row) if v != 0.0} for row in rows.tolist()]
 
     def decode(self, dicts: list[dict[Any, Any]]) -> list[MassFunction]:
         """The mass functions of the dicts; a bad one raises ``BadMass(index, engine's message)``.

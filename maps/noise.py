@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
@@ -22,7 +23,10 @@ from evmap.sources.config import Config
 from evmap.sources.params import MergeParams
 from evmap.sources.relation import relation
 
-__all__ = ["COMPUTED", "NoiseEvidence", "noise_evidence", "other_poses"]
+if TYPE_CHECKING:
+    from evmap.maps.belief_map import BeliefMap
+
+__all__ = ["COMPUTED", "NoiseEvidence", "judge", "noise_evidence", "other_poses"]
 
 COMPUTED = ("relation", "length", "lsl_other_poses")
 """The features the pipeline computes for the noise-elimination sources (an observation brings any others)."""
@@ -88,6 +92,32 @@ def noise_evidence(
         fused[again] = combine_batch(fused[again], *(s.masses(picked) for s in repeat), rule=config.rule)
     eliminated = fused[:, frame.mask("noise")] > config.noise.threshold
     return NoiseEvidence(features["relation"], features["length"], fused, np.ascontiguousarray(k), eliminated)
+
+
+def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
+    """Noise elimination of the map's stored segments ``ids`` against the map's open space.
+
+    Writes each segment's relation, fused mass, conflict and fate into the map's
+    segment store; the open space and the other poses' segments are looked up
+    near the segments only.
+    """
+    store = bm.segments
+    if not len(ids):
+        return
+    ends = np.concatenate([store.p[ids], store.q[ids]])
+    lo, hi = ends.min(axis=0), ends.max(axis=0)
+    space = bm.open_space_near((*lo, *hi))
+    reach = config.merge.distance + config.merge.gap
+    near = store.near((*(lo - reach), *(hi + reach)))
+    seen = other_poses(
+        store.p[ids], store.q[ids], store.pose[ids], store.p[near], store.q[near], store.pose[near], config.merge
+    )
+    features = {**{name: column[ids] for name, column in store.features.items()}, "lsl_other_poses": seen}
+    ev = noise_evidence(store.p[ids], store.q[ids], space, config, features)
+    store.relation[ids] = ev.relation
+    store.mass[ids] = ev.fused
+    store.conflict[ids] = ev.conflict
+    store.eliminated[ids] = ev.eliminated
 
 
 def other_poses(

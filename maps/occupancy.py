@@ -29,6 +29,7 @@ from __future__ import annotations
 import os
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
@@ -37,6 +38,10 @@ from numpy.typing import ArrayLike, NDArray
 from pydantic import BaseModel, ConfigDict, Field
 
 from evidential import Frame, combine_batch
+from evmap.maps.planner import state
+
+if TYPE_CHECKING:
+    from evmap.maps.belief_map import BeliefMap
 
 __all__ = [
     "FREE_MAX",
@@ -46,7 +51,10 @@ __all__ = [
     "evidential_grid",
     "grid_geometry",
     "occupancy_from_masses",
+    "occupancy_grid",
+    "occupancy_masses",
     "polygon_cells",
+    "save_ros_map",
     "segment_cells",
     "write_atomic",
     "write_ros_map",
@@ -330,3 +338,45 @@ def write_ros_map(
     }
     write_atomic(meta, yaml.safe_dump(info, sort_keys=False, default_flow_style=None).encode("utf-8"))
     return pgm, meta
+
+
+def occupancy_masses(
+    bm: BeliefMap, resolution: float = 0.05, params: OccupancyParams | None = None
+) -> tuple[NDArray[np.float64], tuple[float, float]]:
+    """The evidential occupancy grid of a belief map: masses (rows, columns, 4) and origin (x, y).
+
+    Columns of the last axis: m(∅), m(free), m(occupied), m(free|occupied);
+    row 0 is the lowest y; ``origin`` is the lower-left corner of cell (0, 0).
+    Free evidence from the open space, occupied evidence from every line,
+    corner and unidentified object weighted by its belief, combined by the
+    map's rule (see the module doc).
+    """
+    s = state(bm)
+    solid = s.point_kind != "endpoint"
+    xy = s.xy[solid]
+    p = np.concatenate([s.p, xy])
+    q = np.concatenate([s.q, xy])
+    belief = np.concatenate([s.line_bel, s.point_bel[solid]])
+    everything = np.concatenate([s.xy, shapely.get_coordinates(bm.open_space)])
+    if not len(everything):
+        raise ValueError("the map is empty (no points, no open space): an occupancy grid has no extent")
+    bounds = (*everything.min(axis=0), *everything.max(axis=0))
+    return evidential_grid(bm.open_space, p, q, belief, bounds, resolution, bm.rule, params)
+
+
+def occupancy_grid(bm: BeliefMap, resolution: float = 0.05, params: OccupancyParams | None = None) -> NDArray[np.int8]:
+    """The ROS occupancy grid of a belief map (``int8``; see :func:`occupancy_from_masses`; row 0 = lowest y).
+
+    Its origin is that of :func:`occupancy_masses` (the lower-left corner of the
+    map's points and open space, less ``params.padding``).
+    """
+    masses, _ = occupancy_masses(bm, resolution, params)
+    return occupancy_from_masses(masses, params)
+
+
+def save_ros_map(
+    bm: BeliefMap, path_stem: str | Path, resolution: float = 0.05, params: OccupancyParams | None = None
+) -> tuple[Path, Path]:
+    """Write the map's occupancy grid as ``STEM.pgm`` + ``STEM.yaml`` for ROS map_server (:func:`write_ros_map`)."""
+    masses, origin = occupancy_masses(bm, resolution, params)
+    return write_ros_map(occupancy_from_masses(masses, params), resolution, origin, path_stem)

@@ -33,10 +33,13 @@ from numpy.typing import ArrayLike, NDArray
 from evmap.sources.params import RcdParams
 from evmap.sources.sim.sonar import SonarScan
 
-__all__ = ["TYPE_I", "TYPE_II", "TYPE_III", "TYPE_IV", "Rcds", "extract_rcds"]
+__all__ = ["TYPE_I", "TYPE_II", "TYPE_III", "TYPE_IV", "TYPE_NAMES", "Rcds", "extract_rcds"]
 
 TYPE_I, TYPE_II, TYPE_III, TYPE_IV = 1, 2, 3, 4
 """The values of :attr:`Rcds.type`."""
+
+TYPE_NAMES = {TYPE_I: "I", TYPE_II: "II", TYPE_III: "III", TYPE_IV: "IV"}
+"""The paper's names of the RCD types (the ``rcd_type`` feature of the evidence sources)."""
 
 
 @dataclass(frozen=True, eq=False)

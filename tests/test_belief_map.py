@@ -7,7 +7,7 @@ import shapely
 
 from evidential import Frame, MassFunction, TotalConflictError, combine, conflict
 from evmap.maps import BeliefMap, Line, Point
-from evmap.maps.belief_map import _belief_plausibility
+from evmap.maps.planner import belief_plausibility
 
 FRAME = Frame(["real", "noise"])
 
@@ -37,7 +37,7 @@ def test_points_and_lines_are_nodes_and_edges_with_their_attributes(bm):
     assert edge["id"] == "L1" and edge["kind"] == "line" and edge["members"] == [1, 2] and edge["reinforced"] is True
     assert edge["mass"].to_dict() == mass(0.8, 0.1).to_dict()
     assert g.nodes["U1"]["history"] == [{"pose": 0, "sensor": "sonar"}]
-    assert g.graph["schema_version"] == 1 and g.graph["frame"] == ["real", "noise"] and g.graph["rule"] == "dempster"
+    assert g.graph["schema_version"] == 2 and g.graph["frame"] == ["real", "noise"] and g.graph["rule"] == "dempster"
 
 
 def test_lookup_by_id_gives_line_and_point_views(bm):
@@ -163,9 +163,9 @@ def test_batch_beliefs_equal_the_engine_beliefs():
             w[0] = 0.0
             w /= w.sum()
             masses.append(MassFunction.from_dense(frame, w))
-        bel, pl = _belief_plausibility(masses, frame.mask("real"))
+        bel, pl = belief_plausibility(masses, frame.mask("real"))
         assert bel.tolist() == pytest.approx([m.belief("real") for m in masses], abs=1e-15)
         assert pl.tolist() == pytest.approx([m.plausibility("real") for m in masses], abs=1e-15)
         if len(frame) == 2:
             assert bel.tolist() == [m.belief("real") for m in masses]
-    assert _belief_plausibility([], 1)[0].shape == (0,)
+    assert belief_plausibility([], 1)[0].shape == (0,)

@@ -83,7 +83,7 @@ def test_the_file_is_the_contracts_node_link_json(bm, tmp_path):
     bm.save(path)
     data = json.loads(path.read_text())  # standard JSON
     assert data == json.loads(json.dumps(bm.to_data()))
-    assert {"schema_version", "frame", "rule"} <= set(data["graph"]) and data["graph"]["schema_version"] == 1
+    assert {"schema_version", "frame", "rule"} <= set(data["graph"]) and data["graph"]["schema_version"] == 2
     assert data["graph"]["frame"] == ["real", "noise"] and data["graph"]["rule"] == "dempster"
     for record in data["nodes"] + data["edges"]:
         assert isinstance(record["id"], str) and math.fsum(record["mass"].values()) == pytest.approx(1, abs=1e-12)
@@ -143,10 +143,10 @@ def corrupt(data: dict, change) -> dict:
 @pytest.mark.parametrize(
     ("change", "match"),
     [
-        (lambda d: d["graph"].update(schema_version=2), "graph.schema_version: unknown schema version 2"),
+        (lambda d: d["graph"].update(schema_version=3), "graph.schema_version: unknown schema version 3"),
         (lambda d: d["graph"].pop("schema_version"), "graph.schema_version: missing"),
         (lambda d: d["graph"].update(frame="real"), "graph.frame"),
-        (lambda d: d["graph"].update(rule="best"), "graph: rule must be one of"),
+        (lambda d: d["graph"].update(rule="best"), "graph.rule: must be one of"),
         (lambda d: d["graph"].update(open_space={"type": "Point"}), "graph.open_space"),
         (lambda d: d.pop("edges"), "edges: required list is missing"),
         (lambda d: d.update(nodes={}), "nodes: must be a list"),

@@ -16,10 +16,11 @@ import pytest
 import shapely
 
 from evmap import configs
-from evmap.maps.belief_map import POINT_KINDS, BeliefMap
+from evmap.maps import BeliefMap
+from evmap.maps.map_file import POINT_KINDS
 from evmap.maps.noise import noise_evidence
 from evmap.maps.observation import observe
-from evmap.maps.pipeline import new_map
+from evmap.maps import new_map
 from evmap.maps.app.run import Run, report, run_scenario, segment_records
 from evmap.sources.config import load_config
 from evmap.sources.relation import RELATIONS
@@ -189,7 +190,7 @@ def test_map_json_is_the_contracts_node_link_graph(run, summary, tmp_path):
     run.map.save(tmp_path / "map.json")
     data = json.loads((tmp_path / "map.json").read_text())
     graph = data["graph"]
-    assert graph["schema_version"] == 1 and graph["frame"] == ["real", "noise"] and graph["rule"] == "dempster"
+    assert graph["schema_version"] == 2 and graph["frame"] == ["real", "noise"] and graph["rule"] == "dempster"
     assert {n["id"] for n in data["nodes"]} == set(run.map.graph.nodes)
     for node in data["nodes"]:
         assert {"id", "xy", "kind", "mass"} <= set(node)
@@ -201,6 +202,17 @@ def test_map_json_is_the_contracts_node_link_graph(run, summary, tmp_path):
     kinds = [n["kind"] for n in data["nodes"]]
     assert len(data["edges"]) == summary["lines_after_merge"]
     assert kinds.count("corner") == summary["corners"] and kinds.count("unidentified") == summary["unidentified"]
+
+
+def test_every_mass_of_map_json_is_focal_sets_and_a_version_1_file_still_loads(run, tmp_path):
+    run.map.save(tmp_path / "map.json")
+    data = json.loads((tmp_path / "map.json").read_text())
+    segments = data["graph"]["segments"]
+    assert all(set(m) <= set(FOCALS) and math.fsum(m.values()) == pytest.approx(1.0) for m in segments["mass"])
+    segments["mass"] = run.map.segments.mass.tolist()  # version 1 wrote the segments' masses as dense rows
+    data["graph"]["schema_version"] = 1
+    (tmp_path / "old.json").write_text(json.dumps(data))
+    assert BeliefMap.load(tmp_path / "old.json").to_data() == run.map.to_data()
 
 
 # --------------------------------------------------------------------- a saved map keeps folding

@@ -28,7 +28,7 @@ import pytest
 
 from evmap import configs
 from evidential import MassFunction, combine
-from evmap.maps.belief_map import Line
+from evmap.maps import Line
 from evmap.maps.app.run import Run, report, run_scenario
 from evmap.sources.config import config_from_data, load_config
 from evmap.sources.relation import relation

@@ -6,7 +6,7 @@ import pytest
 from evmap import configs
 from evidential import Frame
 from evmap.maps.observation import Observation, observe
-from evmap.maps.pipeline import new_map
+from evmap.maps import new_map
 from evmap.maps.segments import SegmentStore
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import default_scenario

@@ -1,33 +1,39 @@
-"""The grid index: made in bulk, it is what one insert after another makes."""
+"""The spatial index: after any changes, a query finds exactly the boxes that meet it."""
 
 import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from evmap.maps.spatial import GridIndex
+from evmap.maps.spatial import SpatialIndex
 
-coordinate = st.floats(-50.0, 50.0, allow_nan=False)
-
-
-@st.composite
-def boxes(draw):
-    n = draw(st.integers(0, 30))
-    corners = np.array(draw(st.lists(st.tuples(*[coordinate] * 4), min_size=n, max_size=n)), dtype=float)
-    corners = corners.reshape(n, 4)
-    lo, hi = np.minimum(corners[:, :2], corners[:, 2:]), np.maximum(corners[:, :2], corners[:, 2:])
-    return np.hstack([lo, hi])
+coordinate = st.floats(-50.0, 50.0, allow_nan=False).map(lambda v: round(v, 1))
+box = st.tuples(coordinate, coordinate, coordinate, coordinate).map(
+    lambda c: (min(c[0], c[2]), min(c[1], c[3]), max(c[0], c[2]), max(c[1], c[3]))
+)
+change = st.tuples(st.sampled_from(["insert", "remove"]), st.integers(0, 300), box)
 
 
-@given(boxes(), st.sampled_from([0.7, 2.0, 10.0]))
-def test_bulk_grid_is_the_grid_of_inserts(b, cell):
-    keys = [f"k{i}" for i in range(len(b))]
-    one_by_one = GridIndex(cell)
-    for key, box in zip(keys, b.tolist(), strict=True):
-        one_by_one.insert(key, tuple(box))
-    bulk = GridIndex.from_boxes(cell, keys, b)
-    assert bulk._where == one_by_one._where
-    assert bulk._cells == one_by_one._cells
-    if keys:  # and it changes as the other does
-        bulk.remove(keys[0])
-        one_by_one.remove(keys[0])
-        assert bulk._cells == one_by_one._cells and bulk.query((-5, -5, 5, 5)) == one_by_one.query((-5, -5, 5, 5))
+def meets(a, b) -> bool:
+    return a[0] <= b[2] and a[2] >= b[0] and a[1] <= b[3] and a[3] >= b[1]
+
+
+@given(st.lists(box, max_size=40), st.lists(change, max_size=150), st.lists(box, min_size=1, max_size=5))
+def test_queries_find_exactly_the_boxes_that_meet_them(start, changes, queries):
+    boxes = {f"k{i}": b for i, b in enumerate(start)}
+    index = SpatialIndex.from_boxes(list(boxes), np.array(list(boxes.values())))
+    for what, key, b in changes:  # enough changes to make the tree be built anew, with moves and removals
+        key = f"k{key % 60}"
+        if what == "insert":
+            index.insert(key, b)
+            boxes[key] = b
+        elif key in boxes:
+            index.remove(key)
+            del boxes[key]
+        assert len(index) == len(boxes) and all(k in index for k in boxes)
+    for q in queries:
+        assert index.query(q) == {k for k, b in boxes.items() if meets(b, q)}
+    if boxes:
+        lo = np.array(list(boxes.values())).min(axis=0)
+        hi = np.array(list(boxes.values())).max(axis=0)
+        xmin, ymin, xmax, ymax = index.extent()
+        assert xmin <= lo[0] and ymin <= lo[1] and xmax >= hi[2] and ymax >= hi[3]

@@ -61,7 +61,8 @@ from numpy.typing import NDArray
 
 from evidential import RULES
 from evmap.maps.observation import observe
-from evmap.maps.pipeline import fold_observation, new_map
+from evmap.maps import new_map
+from evmap.maps.pipeline import fold_observation
 from evmap.maps.app.run import Run
 from evmap.sources.config import Config, load_config
 from evmap.sources.sim.scenario import Scenario

@@ -1,0 +1,221 @@
+"""Rebuild of lines and corners near a change (paper, section III: merging, then corners).
+
+Every line holding a touched segment is dissolved, and its surviving segments
+are merged again with the touched ones (:mod:`evmap.maps.merging`); the lines
+meeting a dissolved line, or a new line near its ends, are detached and
+re-attached with the new ones, so that their corners (:mod:`evmap.maps.corners`)
+are found anew. A merged line's mass is recomputed from its merged length and
+relation (its pieces are not independent evidence); the sonar evidence of the
+lines it replaces carries over, at most one record per pose and source.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from evidential import MassFunction, combine
+from evmap.maps.corners import find_corners
+from evmap.maps.merging import Merged, merge_segments
+from evmap.maps.noise import noise_evidence
+from evmap.sources.config import Config
+
+if TYPE_CHECKING:
+    from evmap.maps.belief_map import BeliefMap
+
+__all__ = ["fold_records", "rebuild", "refresh_points"]
+
+SURFACE_KINDS = ("corner", "endpoint")
+"""The kinds of points that end lines (an unidentified object ends none)."""
+
+Removed = list[tuple[tuple[float, float], list[dict[str, Any]]]]
+"""Removed corners: position and history of each."""
+
+
+@dataclass
+class _Line:
+    """A line about to be (re)attached: its fitted ends, the points its ends must keep, its data."""
+
+    fit: NDArray[np.float64]  # (2, 2): the ends as merged, before corners move them
+    fixed: tuple[str | None, str | None]  # the point each end stays on, None: found anew
+    data: dict[str, Any]  # id, mass, history, extras
+
+
+def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint: NDArray[np.float64]) -> set[str]:
+    """Re-merge the surviving segments near the change and re-find the corners there.
+
+    ``touched`` are rows of the map's segment store just judged by noise
+    elimination. Returns the ids of every line (re)attached.
+    """
+    store = bm.segments
+    g = bm.graph
+    dissolved = {lid: bm.ends(lid) for lid in sorted(set(store.line[touched].tolist()) - {""})}
+    members = [np.asarray(g.edges[ends]["members"], dtype=np.intp) for ends in dissolved.values()]
+    pool = np.union1d(touched, np.concatenate([np.zeros(0, dtype=np.intp), *members]))
+    pool = pool[~store.eliminated[pool]]
+    merged = merge_segments(store.p[pool], store.q[pool], config.merge)
+
+    affected = _affected_points(bm, dissolved, merged, config)
+    histories = {lid: g.edges[ends]["history"] for lid, ends in dissolved.items()}
+    kept, removed = _detach(bm, dissolved, affected)
+    lines = kept + _new_lines(bm, pool, merged, histories, config)
+    store.line[touched[store.eliminated[touched]]] = ""
+    return _attach(bm, lines, removed, viewpoint, config)
+
+
+def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> None:
+    """Recompute the masses of the end points of these lines.
+
+    A free end point believes what its line believes; a corner starts from its
+    least believed line and folds in its own sonar evidence.
+    """
+    g = bm.graph
+    nodes = {n for lid in line_ids if lid in bm for n in bm.ends(lid)}
+    real = bm.frame.mask("real")
+    for n in sorted(nodes):
+        d = g.nodes[n]
+        masses = [e["mass"] for _, _, e in g.edges(n, data=True)]
+        weakest = min(masses, key=lambda m: m.belief(real)) if masses else bm.vacuous()
+        if d["kind"] == "endpoint":
+            bm.set_attrs(n, mass=weakest)
+        elif d["kind"] == "corner":
+            bm.set_attrs(n, mass=fold_records(weakest, d["history"], config.rule))
+
+
+def fold_records(mass: MassFunction, records: list[dict[str, Any]], rule: str) -> MassFunction:
+    """``mass`` with the records' masses (``{FOCAL: float}``) folded in one by one by ``rule``."""
+    for record in records:
+        mass = combine(mass, MassFunction.from_dict(mass.frame, record["mass"], open_world=True), rule=rule)
+    return mass
+
+
+def _affected_points(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], merged: Merged, config: Config) -> set[str]:
+    """The points whose lines change: the dissolved lines' ends, and points near the new lines' ends."""
+    g = bm.graph
+    affected = {n for ends in dissolved.values() for n in ends}
+    if len(merged.p):
+        ends = np.concatenate([merged.p, merged.q])
+        reach = 2 * config.corners.distance + 1e-9
+        lo, hi = ends.min(axis=0) - reach, ends.max(axis=0) + reach
+        points = [n for n in bm.near((*lo, *hi), "points") if g.nodes[n]["kind"] in SURFACE_KINDS]
+        if points:
+            xy = np.array([g.nodes[n]["xy"] for n in points])
+            d = np.hypot(*(xy[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+            affected |= {points[i] for i in np.flatnonzero(d <= reach)}
+    return affected
+
+
+def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[str]) -> tuple[list[_Line], Removed]:
+    """Remove the dissolved lines, the lines at affected points, and those points.
+
+    Returns the lines to re-attach (each end not at an affected point stays on
+    its point) and the removed corners' positions and histories.
+    """
+    g = bm.graph
+    kept = []
+    for lid in sorted({d["id"] for n in affected for _, _, d in g.edges(n, data=True)} - set(dissolved)):
+        u, v = bm.ends(lid)
+        d = g.edges[u, v]
+        fixed = (None if u in affected else u, None if v in affected else v)
+        kept.append(_Line(np.array(d["fit"], dtype=float), fixed, dict(d)))
+    for lid in [line.data["id"] for line in kept] + list(dissolved):
+        bm.remove_line(lid)
+    removed = [(g.nodes[n]["xy"], g.nodes[n]["history"]) for n in affected if g.nodes[n]["kind"] == "corner"]
+    for n in affected:
+        bm.remove_point(n)
+    return kept, removed
+
+
+def _new_lines(
+    bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, histories: dict[str, list[dict[str, Any]]], config: Config
+) -> list[_Line]:
+    """The merged lines: mass from their merged length and relation (other features from their
+    longest member), and the sonar records of the lines they replace."""
+    store = bm.segments
+    if not len(pool):
+        return []
+    length = np.hypot(*(store.q[pool] - store.p[pool]).T)
+    longest = np.array([pool[group][np.argmax(length[group])] for group in merged.groups], dtype=np.intp)
+    features = {name: column[longest] for name, column in store.features.items()}
+    features["lsl_other_poses"] = np.array([len(np.unique(store.pose[pool[group]])) - 1 for group in merged.groups])
+    ends = np.concatenate([store.p[pool], store.q[pool]])
+    space = bm.open_space_near((*ends.min(axis=0), *ends.max(axis=0)))
+    base = noise_evidence(merged.p, merged.q, space, config, features)
+    lines = []
+    for k, group in enumerate(merged.groups):
+        members = pool[group]
+        replaced = set(store.line[members].tolist()) & set(histories)
+        records = _carried_records([histories[lid] for lid in sorted(replaced)])
+        first = {
+            "stage": "noise_elimination",
+            "poses": sorted(set(store.pose[members].tolist())),
+            "relation": str(base.relation[k]),
+            "length": float(base.length[k]),
+            "mass": MassFunction.from_dense(bm.frame, base.fused[k], open_world=True).to_dict(),
+        }
+        lid = bm.new_id("L")
+        store.line[members] = lid
+        first_mass = MassFunction.from_dict(bm.frame, first["mass"], open_world=True)
+        data = {
+            "id": lid,
+            "mass": fold_records(first_mass, records, config.rule),
+            "history": [first, *records],
+            "members": members.tolist(),
+            "reinforced": any(r["category"] == "matched" for r in records),
+        }
+        lines.append(_Line(np.stack([merged.p[k], merged.q[k]]), (None, None), data))
+    return lines
+
+
+def _attach(
+    bm: BeliefMap, lines: list[_Line], removed: Removed, viewpoint: NDArray[np.float64], config: Config
+) -> set[str]:
+    """Add the lines, their ends meeting at corners (a corner keeps the sonar records of a removed
+    corner within the corner distance) or free; return their ids."""
+    g = bm.graph
+    fits = np.array([line.fit for line in lines]).reshape(-1, 2, 2)
+    corners = find_corners(fits[:, 0], fits[:, 1], config.corners, viewpoint)
+    end_point = {(i, e): line.fixed[e] for i, line in enumerate(lines) for e in (0, 1) if line.fixed[e] is not None}
+    for k, ends in enumerate(corners.ends):
+        pairs = [tuple(pair) for pair in ends.tolist()]
+        if any(pair in end_point for pair in pairs):
+            continue  # an end already on a point outside the change stays there
+        cid = bm.new_id("C")
+        xy = corners.xy[k]
+        near = [h for pxy, h in removed if np.hypot(*(np.asarray(pxy) - xy)) <= config.corners.distance]
+        history = _carried_records(near)
+        reinforced = any(r["category"] == "matched" for r in history)
+        bm.add_point(cid, xy, "corner", bm.vacuous(), history=history, shape=str(corners.shape[k]), reinforced=reinforced)
+        for pair in pairs:
+            end_point[pair] = cid
+    added: set[str] = set()
+    for i, line in enumerate(lines):
+        nodes: list[str] = []
+        for e in (0, 1):
+            node = end_point.get((i, e))
+            if node is None or (nodes and (nodes[0] == node or g.has_edge(nodes[0], node))):
+                node = bm.new_id("E")  # a free end, or a second line between the same two points
+                bm.add_point(node, line.fit[e], "endpoint", bm.vacuous())
+            nodes.append(node)
+        data = line.data
+        extras = {k: v for k, v in data.items() if k not in ("id", "kind", "mass", "history", "fit")}
+        bm.add_line(data["id"], *nodes, data["mass"], history=data["history"], fit=line.fit.tolist(), **extras)
+        added.add(data["id"])
+    return added
+
+
+def _carried_records(histories: Iterable[list[dict[str, Any]]]) -> list[dict[str, Any]]:
+    """The sonar records of replaced objects, at most one per pose and source (``matched`` first), by pose."""
+    best: dict[tuple[Any, Any], dict[str, Any]] = {}
+    for history in histories:
+        for record in history:
+            if record.get("stage") != "reinforcement":
+                continue
+            key = (record["pose"], record["source"])
+            if key not in best or (record["category"] == "matched" and best[key]["category"] != "matched"):
+                best[key] = record
+    return [best[k] for k in sorted(best, key=lambda k: (k[0], str(k[1])))]
