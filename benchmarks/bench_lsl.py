@@ -14,8 +14,8 @@ from functools import partial
 
 import numpy as np
 
-from evmap.sources.sim.lsl import lsl_segments, observe_lsl
 from evmap.sources.params import LslParams
+from evmap.sources.sim.lsl import lsl_segments, observe_lsl
 from evmap.sources.sim.scenario import Scenario, default_scenario
 from evmap.sources.sim.world import World
 

@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
-from evmap.maps.observation import observe
 from evmap.maps import new_map
 from evmap.maps.app.run import run_scenario
+from evmap.maps.observation import observe
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import default_scenario
 from evmap.sources.sim.world import World

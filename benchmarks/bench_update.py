@@ -20,11 +20,11 @@ import time
 import numpy as np
 import shapely
 
+from evmap.maps import new_map
 from evmap.maps.belief_map import BeliefMap
 from evmap.maps.corners import find_corners
 from evmap.maps.noise import noise_evidence
 from evmap.maps.observation import Observation
-from evmap.maps import new_map
 from evmap.sources.config import load_config
 from evmap.sources.sim.lsl import lsl_segments
 from evmap.sources.sim.sonar import simulate_scan

@@ -28,6 +28,7 @@ planner's queries (:mod:`evmap.maps.planner`), the occupancy grid
 
 from __future__ import annotations
 
+import bisect
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
@@ -111,6 +112,8 @@ class BeliefMap:
         self._indexes: dict[str, SpatialIndex] | None = None  # points, lines, obstacles; made on first use
         self._config: Config | None = None
         self._version = 0
+        self._journal: list[tuple[int, str]] = []  # (version, id) of every object changed, oldest first
+        self._journal_floor = 0  # the journal tells the changes since this version on
         self.segments = SegmentStore.empty(frame)
         """The raw LSL segments behind the lines (:class:`evmap.maps.segments.SegmentStore`)."""
 
@@ -141,6 +144,17 @@ class BeliefMap:
     def version(self) -> int:
         """A number that changes whenever the map does: what is derived from the map is kept by it."""
         return self._version
+
+    def changed_since(self, version: int) -> set[str] | None:
+        """The ids of the objects added, changed or removed since ``version``; None if the map no longer knows.
+
+        What is derived from the map (the planner's obstacle trees) catches up
+        with these few objects instead of being made anew.
+        """
+        if version < self._journal_floor:
+            return None
+        start = bisect.bisect_right(self._journal, (version, "\uffff"))
+        return {id for _, id in self._journal[start:]}
 
     @property
     def poses(self) -> tuple[int, ...]:
@@ -291,7 +305,7 @@ class BeliefMap:
             **attrs,
         )
         self._index_point(id)
-        self._changed()
+        self._changed(id)
 
     def add_line(
         self, id: str, u: str, v: str, mass: MassFunction, history: Iterable[Mapping] = (), **attrs: Any
@@ -316,7 +330,7 @@ class BeliefMap:
         self._lines[id] = (u, v)
         if self._indexes is not None:
             self._indexes["lines"].insert(id, self._line_bounds(id))
-        self._changed()
+        self._changed(id)
 
     def remove_line(self, id: str) -> None:
         """Remove the line ``id`` (its end points stay)."""
@@ -325,7 +339,7 @@ class BeliefMap:
         self._graph.remove_edge(*self._lines.pop(id))
         if self._indexes is not None:
             self._indexes["lines"].remove(id)
-        self._changed()
+        self._changed(id)
 
     def remove_point(self, id: str) -> None:
         """Remove the point ``id``; it must end no line (remove those first)."""
@@ -339,7 +353,7 @@ class BeliefMap:
             self._indexes["points"].remove(id)
             if id in self._indexes["targets"]:
                 self._indexes["targets"].remove(id)
-        self._changed()
+        self._changed(id)
 
     def set_attrs(self, id: str, /, **attrs: Any) -> None:
         """Set attributes of the object ``id`` (``mass``, ``xy``, ``kind`` of a point, extras).
@@ -363,10 +377,11 @@ class BeliefMap:
         data.update(checked)
         if "xy" in checked or "kind" in checked:
             self._index_point(id)
-        if "xy" in checked and self._indexes is not None:  # the point's lines moved with it
-            for _, _, line in self._graph.edges(id, data=True):
-                self._indexes["lines"].insert(line["id"], self._line_bounds(line["id"]))
-        self._changed()
+        moved = [line["id"] for _, _, line in self._graph.edges(id, data=True)] if "xy" in checked else []
+        if self._indexes is not None:  # the point's lines moved with it
+            for line in moved:
+                self._indexes["lines"].insert(line, self._line_bounds(line))
+        self._changed(id, *moved)
 
     def fold(self, id: str, mass: MassFunction, record: Mapping[str, Any]) -> MassFunction:
         """Combine new evidence into the object's mass by the map's rule; log it in the history.
@@ -389,7 +404,7 @@ class BeliefMap:
             {**record, "rule": self.rule, "conflict": conflict(data["mass"], mass), "mass": mass.to_dict()}
         )
         data["mass"] = combined
-        self._changed()
+        self._changed(id)
         return combined
 
     def new_id(self, prefix: str) -> str:
@@ -552,8 +567,13 @@ class BeliefMap:
         (x0, y0), (x1, y1) = self._graph.nodes[u]["xy"], self._graph.nodes[v]["xy"]
         return min(x0, x1), min(y0, y1), max(x0, x1), max(y0, y1)
 
-    def _changed(self) -> None:
+    def _changed(self, *ids: str) -> None:
         self._version += 1
+        self._journal.extend((self._version, id) for id in ids)
+        if len(self._journal) > 2 * len(self) + 4096:  # forget the older half
+            half = len(self._journal) // 2
+            self._journal_floor = self._journal[half - 1][0]
+            del self._journal[:half]
 
 
 def new_map(config: Config) -> BeliefMap:
@@ -585,4 +605,3 @@ def _history(history: Iterable[Mapping[str, Any]], id: str) -> list[dict[str, An
     records = [dict(record) for record in history]
     map_json.check_json(records, f"{id}: history")
     return records
-

@@ -255,7 +255,9 @@ class _MapReader:
         rows = np.zeros((len(masses), 1 << len(codec.frame)))
         if not all(type(m) is dict for m in masses):
             i = next(i for i, m in enumerate(masses) if type(m) is not dict)
-            raise self.fail(f"graph.segments.mass[{i}]", f"must be an object {{FOCAL: mass}}, got {map_json.shown(masses[i])}")
+            raise self.fail(
+                f"graph.segments.mass[{i}]", f"must be an object {{FOCAL: mass}}, got {map_json.shown(masses[i])}"
+            )
         try:
             decoded = codec.decode([masses[i] for i in judged])
         except map_json.BadMass as exc:
@@ -367,4 +369,3 @@ def _records_look_right(raw: list[Any], required: frozenset[str], taken: frozens
         and set(map(type, histories)) <= {list}
         and set(map(type, chain.from_iterable(histories))) <= {dict}
     )
-

@@ -2,8 +2,8 @@
 
 An :class:`Observation` is the input of :meth:`evmap.maps.BeliefMap.update`. It comes
 from the simulated world (:func:`observe`) or from real sensors: build a
-:class:`~evmap.sources.sim.sonar.SonarScan` with :meth:`~evmap.sources.sim.sonar.SonarScan.from_readings`
-and an :class:`~evmap.sources.sim.lsl.LslSegments` from the extracted line segments.
+:class:`~evmap.sources.readings.SonarScan` with :meth:`~evmap.sources.readings.SonarScan.from_readings`
+and an :class:`~evmap.sources.readings.LslSegments` from the extracted line segments.
 """
 
 from __future__ import annotations
@@ -16,8 +16,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from evmap.maps.noise import COMPUTED
 from evmap.sources.config import Config
-from evmap.sources.sim.lsl import LslSegments, observe_lsl
-from evmap.sources.sim.sonar import SonarScan, simulate_scan
+from evmap.sources.readings import LslSegments, SonarScan
+from evmap.sources.sim.lsl import observe_lsl
+from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World
 
 __all__ = ["SONAR_STREAM", "Observation", "observe"]

@@ -37,7 +37,7 @@ from evmap.maps.unidentified import add_unidentified
 from evmap.sources.config import Config
 from evmap.sources.open_space import open_space
 from evmap.sources.rcd import Rcds, extract_rcds
-from evmap.sources.sim.sonar import SonarScan
+from evmap.sources.readings import SonarScan
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap

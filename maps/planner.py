@@ -6,10 +6,12 @@ Obstacles are the lines and the unidentified objects; the distance to an
 unidentified object is the distance to its point.
 
 The listings read arrays of the map's state, made once per state of the map
-(:func:`state`); the spatial queries read the map's spatial indexes
-(:meth:`~evmap.maps.belief_map.BeliefMap.near`, shapely STRtrees kept up to date
-one change at a time) and compute beliefs only of the objects found, so a query
-right after a change costs what is near, not the map.
+(:func:`state`). The spatial queries read a shapely STRtree of the obstacles
+above the belief asked for (:func:`obstacle_tree`), made once and then caught up
+with the map through its journal of changes
+(:meth:`~evmap.maps.belief_map.BeliefMap.changed_since`): the few objects changed
+since the tree was made are checked one by one, and the tree is made anew only
+when they grow many. A query right after a change costs what changed, not the map.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from numbers import Real
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 
 from evidential import MassFunction
@@ -32,6 +35,7 @@ if TYPE_CHECKING:
 __all__ = [
     "Line",
     "MapState",
+    "ObstacleTree",
     "Point",
     "belief_plausibility",
     "corners",
@@ -39,12 +43,17 @@ __all__ = [
     "landmarks",
     "lines",
     "nearest_obstacle",
+    "obstacle_tree",
     "state",
     "unidentified",
 ]
 
 FIRST_REACH = 2.0
-"""Half the side (m) of the first square :func:`nearest_obstacle` searches; it doubles until done."""
+"""How much farther (m) :func:`nearest_obstacle` first looks when the nearest obstacles in its tree have changed."""
+
+REBUILD_CHANGES = 256
+REBUILD_SHARE = 0.02
+"""An obstacle tree is made anew once more objects changed since it was made than these (count, share of it)."""
 
 
 class Line(NamedTuple):
@@ -137,36 +146,131 @@ def landmarks(bm: BeliefMap) -> list[Line | Point]:
     return found
 
 
+class ObstacleTree:
+    """The obstacles of a map with belief at least ``level`` in a :class:`shapely.STRtree`, as of one version.
+
+    Lines are LineStrings and unidentified objects Points. The objects changed
+    since the tree was made (the map's journal) are ``dirty``: the queries leave
+    them out of the tree and check, one by one, those of them that are obstacles
+    now (``ids``, ``p``, ``q``, caught up with every change as it comes).
+    """
+
+    def __init__(self, bm: BeliefMap, level: float) -> None:
+        g, real = bm.graph, bm.frame.mask("real")
+        xy_of = dict(g.nodes(data="xy"))
+        edges = list(g.edges(data=True))
+        targets = [n for n, kind in g.nodes(data="kind") if kind == "unidentified"]
+        lines = [d["id"] for _, _, d in edges]
+        masses = [d["mass"] for _, _, d in edges] + [g.nodes[n]["mass"] for n in targets]
+        keep = belief_plausibility(masses, real)[0] >= level
+        ends = np.array([(xy_of[u], xy_of[v]) for u, v, _ in edges], dtype=float).reshape(-1, 2, 2)
+        xy = np.array([xy_of[n] for n in targets], dtype=float).reshape(-1, 2)
+        geometries = np.concatenate([shapely.linestrings(ends), shapely.points(xy)])[keep]
+        self.tree_ids = np.array(lines + targets, dtype=object)[keep]
+        self.tree = shapely.STRtree(geometries)
+        self.level = level
+        self.version = bm.version  # what the map was when the tree was made, then as far as caught up
+        self.dirty: set[str] = set()
+        self._row: dict[str, int] = {}  # row of each dirty obstacle in the arrays below
+        self._ends = np.zeros((16, 2, 2))
+        self._alive = np.zeros(16, dtype=bool)
+        self._row_ids: list[str] = []
+
+    @property
+    def ids(self) -> NDArray[np.object_]:
+        """The ids of the changed objects that are obstacles now."""
+        return np.array(self._row_ids, dtype=object)[self._alive[: len(self._row_ids)]]
+
+    @property
+    def p(self) -> NDArray[np.float64]:
+        """(n, 2) one end of each of :attr:`ids`."""
+        return self._ends[: len(self._row_ids), 0][self._alive[: len(self._row_ids)]]
+
+    @property
+    def q(self) -> NDArray[np.float64]:
+        """(n, 2) the other end of each of :attr:`ids` (the same point for an unidentified object)."""
+        return self._ends[: len(self._row_ids), 1][self._alive[: len(self._row_ids)]]
+
+    def catch_up(self, bm: BeliefMap) -> bool:
+        """Take in the map's changes since :attr:`version`; False if they are too many (make a new tree)."""
+        new = bm.changed_since(self.version)
+        limit = max(REBUILD_CHANGES, REBUILD_SHARE * len(self.tree_ids))
+        if new is None or len(self.dirty | new) > limit or len(self._row_ids) + len(new) > 4 * limit:
+            return False
+        self.dirty |= new
+        nodes = bm.graph.nodes
+        for id in new:
+            row = self._row.pop(id, None)
+            if row is not None:
+                self._alive[row] = False
+            obstacle = id in bm and (bm.is_line(id) or nodes[id]["kind"] == "unidentified")
+            if obstacle and bm.mass(id).belief("real") >= self.level:
+                u, v = bm.ends(id) if bm.is_line(id) else (id, id)
+                row = self._row[id] = len(self._row_ids)
+                if row == len(self._alive):
+                    self._ends = np.concatenate([self._ends, np.zeros_like(self._ends)])
+                    self._alive = np.concatenate([self._alive, np.zeros_like(self._alive)])
+                self._ends[row] = (nodes[u]["xy"], nodes[v]["xy"])
+                self._alive[row] = True
+                self._row_ids.append(id)
+        self.version = bm.version
+        return True
+
+
+_trees: weakref.WeakKeyDictionary[BeliefMap, dict[float, ObstacleTree]] = weakref.WeakKeyDictionary()
+
+
+def obstacle_tree(bm: BeliefMap, level: float) -> ObstacleTree:
+    """The map's obstacle tree at ``level``, caught up with the map: made anew when too much changed since."""
+    trees = _trees.setdefault(bm, {})
+    tree = trees.get(level)
+    if tree is None or (tree.version != bm.version and not tree.catch_up(bm)):
+        tree = trees[level] = ObstacleTree(bm, level)
+    return tree
+
+
+def _geometries(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.object_]:
+    """Segments p-q as shapely geometries (a Point where p = q)."""
+    same = (p == q).all(axis=1)
+    return np.where(same, shapely.points(p), shapely.linestrings(np.stack([p, q], axis=1)))
+
+
 def nearest_obstacle(bm: BeliefMap, xy: Iterable[float], min_belief: float = 0.5) -> tuple[float, str | None]:
     """Distance from ``xy`` to the nearest obstacle with belief at least ``min_belief``, and its id.
 
     ``(inf, None)`` when there is none. Of equally near obstacles, the one with
-    the smallest id. The search looks in squares around ``xy`` whose side
-    doubles until the nearest obstacle found is nearer than the square's border,
-    or the square holds every obstacle: a handful of index queries, however far
-    ``xy`` is from the map.
+    the smallest id. One nearest-neighbour query of the obstacle tree (shapely's
+    STRtree), plus the few obstacles changed since the tree was made.
     """
-    here = np.array(point(xy, "xy"))
-    level = belief_level(min_belief)
-    xmin, ymin, xmax, ymax = bm.extent()
-    if not xmin <= xmax:
+    xy = point(xy, "xy")
+    here = shapely.Point(xy)
+    tree = obstacle_tree(bm, belief_level(min_belief))
+    candidates: list[str] = []
+    geometries: list[shapely.Geometry] = []
+    reach = math.inf
+    if len(tree.tree_ids):
+        found, distance = tree.tree.query_nearest(here, all_matches=True, return_distance=True)
+        clean = [i for i in found.tolist() if tree.tree_ids[i] not in tree.dirty]
+        reach = float(distance[0])
+        while not clean:  # the nearest ones changed: look farther
+            reach = 2 * reach + FIRST_REACH
+            around = tree.tree.query(here, predicate="dwithin", distance=reach).tolist()
+            clean = [i for i in around if tree.tree_ids[i] not in tree.dirty]
+            if not clean and len(around) == len(tree.tree_ids):
+                reach = math.inf
+                break
+        candidates += tree.tree_ids[clean].tolist()
+        geometries += list(tree.tree.geometries.take(clean))
+    if tree.dirty and len(ids := tree.ids):  # the changed obstacles that may be as near (exact distances decide)
+        p, q = tree.p, tree.q
+        near = np.flatnonzero(point_segment_distances(np.array(xy), p, q) <= reach + 1e-9)
+        candidates += ids[near].tolist()
+        geometries += list(_geometries(p[near], q[near]))
+    if not candidates:
         return math.inf, None
-    reach = max(FIRST_REACH, abs(here[0] - np.clip(here[0], xmin, xmax)), abs(here[1] - np.clip(here[1], ymin, ymax)))
-    seen: set[str] = set()
-    best, best_id = math.inf, None
-    while True:
-        found = bm.near((here[0] - reach, here[1] - reach, here[0] + reach, here[1] + reach), "obstacles") - seen
-        seen |= found
-        ids, p, q = _obstacles(bm, found, level)
-        if ids:
-            distance = point_segment_distances(here, p, q)
-            n = int(np.argmin(distance))  # the first of the nearest: the smallest id
-            if distance[n] < best or (distance[n] == best and ids[n] < best_id):
-                best, best_id = float(distance[n]), ids[n]
-        covers = here[0] - reach <= xmin and here[1] - reach <= ymin and here[0] + reach >= xmax and here[1] + reach >= ymax
-        if best <= reach or covers:
-            return best, best_id
-        reach *= 2
+    distance = shapely.distance(np.array(geometries, dtype=object), here)
+    best = distance.min()
+    return float(best), min(id for id, d in zip(candidates, distance.tolist(), strict=True) if d <= best)
 
 
 def is_segment_clear(
@@ -179,10 +283,17 @@ def is_segment_clear(
     a, b = np.array(point(a, "a")), np.array(point(b, "b"))
     if not (isinstance(clearance, Real) and 0 <= clearance < math.inf):
         raise ValueError(f"clearance must be a finite number >= 0 (m), got {clearance!r}")
-    level = belief_level(min_belief)
+    tree = obstacle_tree(bm, belief_level(min_belief))
+    path = _geometries(a[None], b[None])[0]
+    hits = tree.tree.query(path, predicate="dwithin", distance=clearance).tolist()
+    if any(tree.tree_ids[i] not in tree.dirty for i in hits):
+        return False
+    if not tree.dirty:
+        return True
+    p, q = tree.p, tree.q
     lo, hi = np.minimum(a, b) - clearance, np.maximum(a, b) + clearance
-    ids, p, q = _obstacles(bm, bm.near((*lo.tolist(), *hi.tolist()), "obstacles"), level)
-    return not ids or bool((segment_distances(a, b, p, q) > clearance).all())
+    near = ((np.maximum(p, q) >= lo) & (np.minimum(p, q) <= hi)).all(axis=1)  # boxes that meet the path's
+    return not near.any() or bool((segment_distances(a, b, p[near], q[near]) > clearance).all())
 
 
 def belief_plausibility(masses: list[MassFunction], a: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -219,34 +330,6 @@ def point(xy: Iterable[float], what: str) -> tuple[float, float]:
     if not (math.isfinite(p[0]) and math.isfinite(p[1])):
         raise ValueError(f"{what}: a point must have finite coordinates, got {p}")
     return p
-
-
-_beliefs: weakref.WeakKeyDictionary[BeliefMap, dict[str, tuple[MassFunction, float]]] = weakref.WeakKeyDictionary()
-
-
-def _obstacles(
-    bm: BeliefMap, ids: Iterable[str], level: float
-) -> tuple[list[str], NDArray[np.float64], NDArray[np.float64]]:
-    """Of the obstacles ``ids``, those with a belief of at least ``level`` (sorted), and their ends p, q (n, 2).
-
-    Beliefs are remembered with the (immutable) mass they were computed of, so a
-    changed mass is computed again and an unchanged one is not.
-    """
-    cache = _beliefs.setdefault(bm, {})
-    kept = []
-    for id in ids:
-        mass = bm.mass(id)
-        known = cache.get(id)
-        if known is None or known[0] is not mass:
-            known = cache[id] = (mass, mass.belief("real"))
-        if known[1] >= level:
-            kept.append(id)
-    kept.sort()
-    nodes = bm.graph.nodes
-    ends = [bm.ends(id) if bm.is_line(id) else (id, id) for id in kept]
-    p = np.array([nodes[u]["xy"] for u, _ in ends], dtype=float).reshape(-1, 2)
-    q = np.array([nodes[v]["xy"] for _, v in ends], dtype=float).reshape(-1, 2)
-    return kept, p, q
 
 
 def _points(bm: BeliefMap, kind: str, min_belief: float) -> list[Point]:

@@ -189,7 +189,9 @@ def _attach(
         near = [h for pxy, h in removed if np.hypot(*(np.asarray(pxy) - xy)) <= config.corners.distance]
         history = _carried_records(near)
         reinforced = any(r["category"] == "matched" for r in history)
-        bm.add_point(cid, xy, "corner", bm.vacuous(), history=history, shape=str(corners.shape[k]), reinforced=reinforced)
+        bm.add_point(
+            cid, xy, "corner", bm.vacuous(), history=history, shape=str(corners.shape[k]), reinforced=reinforced
+        )
         for pair in pairs:
             end_point[pair] = cid
     added: set[str] = set()

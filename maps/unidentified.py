@@ -25,7 +25,9 @@ if TYPE_CHECKING:
 __all__ = ["add_unidentified"]
 
 
-def add_unidentified(bm: BeliefMap, check: SonarCheck, pose: NDArray[np.float64], pose_index: int, config: Config) -> list[str]:
+def add_unidentified(
+    bm: BeliefMap, check: SonarCheck, pose: NDArray[np.float64], pose_index: int, config: Config
+) -> list[str]:
     """Unmatched actual RCDs of Type I-III in sight become unidentified objects (or reinforce one near).
 
     Returns the ids of the objects added or reinforced, strongest evidence (Type I) first.

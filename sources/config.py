@@ -44,8 +44,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from evmap import configs
 from evidential import RULES, Frame
+from evmap import configs
 from evmap.sources.evidence import KINDS, EvidenceSource, Name, SpecError
 from evmap.sources.loading import InputError, key_path, load_model, validate
 from evmap.sources.params import (

@@ -22,7 +22,7 @@ import shapely
 
 from evmap.sources.params import OpenSpaceParams
 from evmap.sources.rcd import TYPE_I, TYPE_IV, Rcds
-from evmap.sources.sim.sonar import SonarScan
+from evmap.sources.readings import SonarScan
 
 __all__ = ["open_space"]
 

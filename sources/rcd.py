@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from evmap.sources.params import RcdParams
-from evmap.sources.sim.sonar import SonarScan
+from evmap.sources.readings import SonarScan
 
 __all__ = ["TYPE_I", "TYPE_II", "TYPE_III", "TYPE_IV", "TYPE_NAMES", "Rcds", "extract_rcds"]
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import yaml
 
-from evmap import configs
 from evidential import RULES, Frame
+from evmap import configs
 from evmap.sources.config import MAX_FRAME_ELEMENTS, MAX_SOURCES, STAGES, load_config
 from evmap.sources.evidence import MAX_BREAK_POINTS, MAX_CATEGORIES, MAX_TABLE_CELLS
 from evmap.sources.loading import InputError

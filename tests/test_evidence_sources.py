@@ -11,8 +11,8 @@ import shapely
 from hypothesis import given
 from hypothesis import strategies as st
 
-from evmap import configs
 from evidential import Frame, combine_batch
+from evmap import configs
 from evmap.sources.config import load_config
 from evmap.sources.evidence import (
     KINDS,

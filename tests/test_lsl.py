@@ -8,17 +8,10 @@ import shapely
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from evmap.sources.sim.lsl import (
-    LSL_NOISE_STREAM,
-    LslSegments,
-    concat_segments,
-    fit_polylines,
-    lsl_segments,
-    observe_lsl,
-    observe_lsl_all,
-    stripe_scan,
-)
 from evmap.sources.params import LslParams, SonarParams
+from evmap.sources.polyline import fit_polylines
+from evmap.sources.readings import LslSegments, concat_segments
+from evmap.sources.sim.lsl import LSL_NOISE_STREAM, lsl_segments, observe_lsl, observe_lsl_all, stripe_scan
 from evmap.sources.sim.scenario import Robot, Scenario, load_scenario
 from evmap.sources.sim.world import World, cast_rays, visible, wall_id
 

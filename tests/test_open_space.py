@@ -10,8 +10,9 @@ from hypothesis import strategies as st
 from evmap.sources.open_space import open_space
 from evmap.sources.params import OpenSpaceParams, RcdParams, SonarParams
 from evmap.sources.rcd import extract_rcds
+from evmap.sources.readings import SonarScan
 from evmap.sources.sim.scenario import parse_scenario
-from evmap.sources.sim.sonar import SonarScan, simulate_scan
+from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.surfaces import Surfaces
 from evmap.sources.sim.world import World
 

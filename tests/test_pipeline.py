@@ -16,12 +16,11 @@ import pytest
 import shapely
 
 from evmap import configs
-from evmap.maps import BeliefMap
+from evmap.maps import BeliefMap, new_map
+from evmap.maps.app.run import Run, report, run_scenario, segment_records
 from evmap.maps.map_file import POINT_KINDS
 from evmap.maps.noise import noise_evidence
 from evmap.maps.observation import observe
-from evmap.maps import new_map
-from evmap.maps.app.run import Run, report, run_scenario, segment_records
 from evmap.sources.config import load_config
 from evmap.sources.relation import RELATIONS
 from evmap.sources.sim.scenario import default_scenario, load_scenario

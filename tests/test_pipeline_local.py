@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from evmap import configs
+from evmap.maps.app.run import run_scenario
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import merge_segments
-from evmap.maps.app.run import run_scenario
 from evmap.sources.config import load_config
 from evmap.sources.relation import relation
 from evmap.sources.sim.scenario import load_scenario

@@ -7,7 +7,7 @@ import pytest
 
 from evmap.sources.params import RcdParams, SonarParams
 from evmap.sources.rcd import extract_rcds
-from evmap.sources.sim.sonar import SonarScan
+from evmap.sources.readings import SonarScan
 
 PARAMS = RcdParams()
 

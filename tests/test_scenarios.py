@@ -26,8 +26,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from evmap import configs
 from evidential import MassFunction, combine
+from evmap import configs
 from evmap.maps import Line
 from evmap.maps.app.run import Run, report, run_scenario
 from evmap.sources.config import config_from_data, load_config

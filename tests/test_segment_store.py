@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from evmap import configs
 from evidential import Frame
-from evmap.maps.observation import Observation, observe
+from evmap import configs
 from evmap.maps import new_map
+from evmap.maps.observation import Observation, observe
 from evmap.maps.segments import SegmentStore
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import default_scenario

@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 
 from evmap.sources.params import RcdParams, SonarParams
 from evmap.sources.rcd import extract_rcds
-from evmap.sources.sim.sonar import ScanError, SonarScan, simulate_scan
+from evmap.sources.readings import ScanError, SonarScan
+from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.surfaces import Surfaces
 
 PARAMS = SonarParams()

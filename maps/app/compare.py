@@ -60,10 +60,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evidential import RULES
-from evmap.maps.observation import observe
 from evmap.maps import new_map
-from evmap.maps.pipeline import fold_observation
 from evmap.maps.app.run import Run
+from evmap.maps.observation import observe
+from evmap.maps.pipeline import fold_observation
 from evmap.sources.config import Config, load_config
 from evmap.sources.sim.scenario import Scenario
 from evmap.sources.sim.surfaces import Surfaces

@@ -51,11 +51,11 @@ from matplotlib.patches import Circle, Patch, PathPatch, Polygon
 from matplotlib.path import Path as MplPath
 from numpy.typing import NDArray
 
+from evmap.maps.app.run import Run
 from evmap.maps.observation import Observation
 from evmap.maps.pipeline import PoseOutcome
-from evmap.maps.app.run import Run
 from evmap.sources.rcd import Rcds, extract_rcds
-from evmap.sources.sim.sonar import SonarScan
+from evmap.sources.readings import SonarScan
 
 __all__ = [
     "FIGURE_FILES",

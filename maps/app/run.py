@@ -13,9 +13,9 @@ from typing import Any
 
 import numpy as np
 
+from evmap.maps import new_map
 from evmap.maps.belief_map import BeliefMap
 from evmap.maps.observation import Observation, observe
-from evmap.maps import new_map
 from evmap.maps.pipeline import PoseOutcome
 from evmap.maps.segments import SegmentStore
 from evmap.sources.config import Config

@@ -9,7 +9,7 @@ The model, per snapshot ``k`` (centred on heading + ``k * step_deg``):
    ``max_range``; transparent surfaces (glass, mirrors) return nothing and let the
    stripe pass. The range gets Gaussian noise of std ``range_noise * range``
    (``max_range`` applies to the true range).
-2. Line segments (:func:`fit_polylines`): the ordered stripe points are broken
+2. Line segments (:func:`evmap.sources.polyline.fit_polylines`): the ordered stripe points are broken
    where a ray returns nothing or consecutive points are more than
    ``break_distance`` apart, then split by iterative end-point fit (a point
    further than ``split_threshold + split_sigmas * sigma`` from its piece's chord,
@@ -32,23 +32,18 @@ depend on which other poses or sensors were simulated first.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from evmap.sources.params import LslParams
+from evmap.sources.polyline import fit_pieces, piece_members, split_pieces
+from evmap.sources.readings import LslSegments, StripeScan, concat_segments
 from evmap.sources.sim.surfaces import Surfaces
 from evmap.sources.sim.world import World, cast_rays, visible
 
 __all__ = [
     "LSL_NOISE_STREAM",
     "SUNLIGHT_STREAM",
-    "LslSegments",
-    "StripeScan",
-    "concat_segments",
-    "fit_polylines",
     "lsl_segments",
     "observe_lsl",
     "observe_lsl_all",
@@ -60,79 +55,6 @@ LSL_NOISE_STREAM = 101
 
 SUNLIGHT_STREAM = 102
 """Stream number of the sunlight phantoms of region ``r``: ``default_rng([seed, pose_index, 102, r])``."""
-
-
-@dataclass(frozen=True, eq=False)
-class StripeScan:
-    """The stripe points of one rotational scan: ``S`` snapshots of ``R`` rays each.
-
-    Attributes
-    ----------
-    origin : (2,) sensor position.
-    angles : (S, R) world bearing of every ray (radians), increasing within a snapshot.
-    ranges : (S, R) measured (noisy) range, NaN where the ray returned nothing.
-    true_ranges : (S, R) noise-free range, NaN where nothing.
-    hit : (S, R) what each ray hit: index into the surfaces' segments, or
-        ``N + k`` for cylinder ``k`` (``N`` segments), or -1 for nothing.
-    """
-
-    origin: NDArray[np.float64]
-    angles: NDArray[np.float64]
-    ranges: NDArray[np.float64]
-    true_ranges: NDArray[np.float64]
-    hit: NDArray[np.intp]
-
-    @property
-    def points(self) -> NDArray[np.float64]:
-        """(S, R, 2) measured stripe points in world coordinates, NaN where nothing."""
-        direction = np.stack([np.cos(self.angles), np.sin(self.angles)], axis=-1)
-        return self.origin + self.ranges[..., None] * direction
-
-
-@dataclass(frozen=True, eq=False)
-class LslSegments:
-    """LSL line segments, of one pose or of several.
-
-    Attributes
-    ----------
-    p, q : (N, 2) end points (metres, world frame).
-    truth : (N,) ``"real"`` (fitted to stripe points on a true surface) or ``"noise"`` (sunlight).
-    snapshot : (N,) index of the snapshot that saw the segment.
-    source : (N,) id of the world segment or cylinder that made most of a real
-        segment's points; ``""`` for a phantom.
-    pose : (N,) index of the pose the segment was observed from.
-    """
-
-    p: NDArray[np.float64]
-    q: NDArray[np.float64]
-    truth: NDArray[np.str_]
-    snapshot: NDArray[np.intp]
-    source: NDArray[np.str_]
-    pose: NDArray[np.intp]
-
-    def __len__(self) -> int:
-        return len(self.p)
-
-    @property
-    def length(self) -> NDArray[np.float64]:
-        """(N,) segment lengths."""
-        return np.hypot(*(self.q - self.p).T)
-
-
-def concat_segments(parts: Sequence[LslSegments]) -> LslSegments:
-    """Concatenate segment sets (e.g. the poses' outputs), keeping each one's pose index.
-
-    >>> concat_segments([]).p.shape
-    (0, 2)
-    """
-    return LslSegments(
-        p=np.concatenate([s.p for s in parts] or [np.zeros((0, 2))]),
-        q=np.concatenate([s.q for s in parts] or [np.zeros((0, 2))]),
-        truth=np.concatenate([s.truth for s in parts] or [np.zeros(0, dtype="<U5")]),
-        snapshot=np.concatenate([s.snapshot for s in parts] or [np.zeros(0, dtype=np.intp)]),
-        source=np.concatenate([s.source for s in parts] or [np.zeros(0, dtype=str)]),
-        pose=np.concatenate([s.pose for s in parts] or [np.zeros(0, dtype=np.intp)]),
-    )
 
 
 def _wrap(angle: ArrayLike) -> NDArray[np.float64]:
@@ -197,85 +119,6 @@ def stripe_scan(
     return StripeScan(origin=origin, angles=angles, ranges=ranges, true_ranges=true_ranges, hit=hit)
 
 
-def fit_polylines(
-    points: ArrayLike, sigma: ArrayLike, params: LslParams
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]:
-    """Line segments from one snapshot's ordered stripe points (NaN rows: no return).
-
-    Parameters
-    ----------
-    points : (M, 2) stripe points in scan order.
-    sigma : (M,) range-noise std of each point (m); widens the split distance.
-    params : ``split_threshold``, ``split_sigmas``, ``break_distance``, ``min_points``.
-
-    Returns
-    -------
-    p, q : (n, 2) fitted segment ends, ``p`` on the side of the first point.
-    pieces : (n, 2) index of the first and last point of each segment's piece
-        (the point where a piece was split belongs to both pieces).
-
-    >>> wall = [[x, 2.0] for x in np.linspace(-0.5, 0.5, 21)]
-    >>> side = [[0.5, y] for y in np.linspace(1.95, 1.75, 5)]
-    >>> gap_then_wall = [[np.nan, np.nan]] + [[x, 1.0] for x in np.linspace(0.5, 0.7, 5)]
-    >>> p, q, pieces = fit_polylines(wall + side + gap_then_wall, np.zeros(32), LslParams())
-    >>> p.round(6).tolist(), q.round(6).tolist(), pieces.tolist()
-    ([[-0.5, 2.0], [0.5, 2.0], [0.5, 1.0]], [[0.5, 2.0], [0.5, 1.75], [0.7, 1.0]], [[0, 20], [20, 25], [27, 31]])
-    """
-    points = np.asarray(points, dtype=float)
-    pieces = _split(points, np.asarray(sigma, dtype=float), params)
-    p, q = _fit(points, pieces)
-    return p, q, pieces
-
-
-def _split(points: NDArray[np.float64], sigma: NDArray[np.float64], params: LslParams) -> NDArray[np.intp]:
-    """(n, 2) first and last index of each piece: runs broken at gaps, split by iterative end-point fit."""
-    tol = params.split_threshold + params.split_sigmas * sigma
-    valid = np.flatnonzero(~np.isnan(points).any(axis=1))
-    gap = np.hypot(*np.diff(points[valid], axis=0).T)
-    cut = np.flatnonzero((np.diff(valid) != 1) | (gap > params.break_distance)) + 1
-    pieces = []
-    for run in np.split(valid, cut):
-        stack = [(run[0], run[-1])] if len(run) >= params.min_points else []
-        while stack:
-            a, b = stack.pop()
-            pts = points[a : b + 1]
-            chord = pts[-1] - pts[0]
-            normal = np.array([-chord[1], chord[0]]) / np.hypot(*chord)
-            deviation = np.abs((pts - pts[0]) @ normal)
-            if np.any(deviation > tol[a : b + 1]):
-                m = a + int(np.argmax(deviation))
-                stack += [(m, b)] if b - m + 1 >= params.min_points else []
-                stack += [(a, m)] if m - a + 1 >= params.min_points else []
-            else:
-                pieces.append((a, b))
-    return np.array(sorted(pieces), dtype=np.intp).reshape(-1, 2)
-
-
-def _fit(points: NDArray[np.float64], pieces: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Total least squares line of each piece's points, clipped to its extreme points, all pieces at once."""
-    if len(pieces) == 0:
-        return np.zeros((0, 2)), np.zeros((0, 2))
-    members, owner, starts = _members(pieces)
-    count = np.diff(np.append(starts, len(members)))
-    centre = np.add.reduceat(points[members], starts, axis=0) / count[:, None]
-    d = points[members] - centre[owner]
-    sxx, syy, sxy = (np.add.reduceat(v, starts) for v in (d[:, 0] ** 2, d[:, 1] ** 2, d[:, 0] * d[:, 1]))
-    phi = 0.5 * np.arctan2(2 * sxy, sxx - syy)  # direction of largest spread
-    u = np.column_stack([np.cos(phi), np.sin(phi)])
-    u[((points[pieces[:, 1]] - points[pieces[:, 0]]) * u).sum(axis=1) < 0] *= -1  # first point to last
-    t = (d * u[owner]).sum(axis=1)
-    t_min, t_max = np.minimum.reduceat(t, starts), np.maximum.reduceat(t, starts)
-    return centre + t_min[:, None] * u, centre + t_max[:, None] * u
-
-
-def _members(pieces: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
-    """The point indices of all pieces one after the other, the piece of each, and where each piece starts."""
-    count = pieces[:, 1] - pieces[:, 0] + 1
-    starts = np.cumsum(count) - count
-    members = np.repeat(pieces[:, 0] - starts, count) + np.arange(count.sum())
-    return members, np.repeat(np.arange(len(pieces)), count), starts
-
-
 def lsl_segments(
     surfaces: Surfaces,
     pose: ArrayLike,
@@ -301,10 +144,10 @@ def lsl_segments(
     sigma = params.range_noise * np.nan_to_num(np.pad(scan.ranges, ((0, 0), (0, 1))))
     hit = np.pad(scan.hit, ((0, 0), (0, 1)), constant_values=-1).ravel()
     points = points.reshape(-1, 2)
-    pieces = _split(points, sigma.ravel(), params)
-    p, q = _fit(points, pieces)
+    pieces = split_pieces(points, sigma.ravel(), params)
+    p, q = fit_pieces(points, pieces)
     # the object that made most of each piece's points
-    members, owner, _ = _members(pieces)
+    members, owner, _ = piece_members(pieces)
     ids = np.concatenate([surfaces.segment_ids, surfaces.cylinder_ids]).astype(str)
     pairs, votes = np.unique(owner * len(ids) + hit[members], return_counts=True)
     best = np.lexsort((-votes, pairs // len(ids)))  # by piece, most votes first

@@ -37,7 +37,6 @@ from numpy.typing import NDArray
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 from evmap import configs
-
 from evmap.sources.loading import load_model, read_yaml, validate
 from evmap.sources.params import LslParams, SonarParams
 

@@ -40,15 +40,15 @@ simulated world, or the line-corner map from which the fusion stage predicts a s
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from evmap.sources.params import SonarParams
+from evmap.sources.readings import ScanError, SonarScan
 from evmap.sources.sim.surfaces import Surfaces
 
-__all__ = ["ScanError", "SonarScan", "simulate_scan"]
+__all__ = ["simulate_scan"]
 
 _EPS = 1e-7
 """Tolerance on path parameters (relative): a path touching an occluder at its own ends is not blocked."""
@@ -62,128 +62,6 @@ _FLAT = 1e-6
 
 _Echoes = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]
 """Echoes as arrays: bearing from the sensor (rad), detection half-width (rad), range (m), label index."""
-
-
-class ScanError(ValueError):
-    """Readings, angles or a pose that no sonar scan can have; the message names the array and index."""
-
-
-def _readonly(a: NDArray[Any]) -> NDArray[Any]:
-    a.setflags(write=False)
-    return a
-
-
-@dataclass(frozen=True, eq=False)
-class SonarScan:
-    """One rotational sonar scan: a reading per beam-axis angle, with ground-truth labels.
-
-    Attributes
-    ----------
-    pose : (3,) float: sensor x, y (m) and heading (rad) in world coordinates.
-    angles : (M,) float: world-frame beam-axis angle of each reading (rad), strictly
-        increasing and spanning less than a full turn (they need not be wrapped).
-    ranges : (M,) float: range of each reading (m), in ``[0, params.max_range]``.
-    target : (M,) str: id of the object that made the reading (a segment, vertex or
-        cylinder id; for a multiple reflection the first wall); ``""`` for none or unknown.
-    order : (M,) int: reflection order: 0 no echo (max range), 1 direct, 2 double
-        bounce, -1 unknown (measured data).
-    params : the sensor's :class:`~evmap.sources.params.SonarParams`.
-
-    Construction validates the arrays (the one place where raw readings are
-    checked): a NaN or negative range, a non-finite angle, duplicate or unordered
-    angles, angles spanning a full turn or more, or arrays of different lengths
-    raise :class:`ScanError` naming the array and index. A range beyond
-    ``max_range`` is set to ``max_range``: the timing circuit reports nothing longer.
-    The arrays are stored read-only.
-
-    Examples
-    --------
-    >>> scan = SonarScan.from_readings([0.0, 0.1, 0.2], [1.0, 1.0, 12.0], SonarParams())
-    >>> scan.ranges.tolist(), scan.order.tolist()
-    ([1.0, 1.0, 10.0], [-1, -1, 0])
-    >>> SonarScan.from_readings([0.0, 0.0], [1.0, 1.0], SonarParams())
-    Traceback (most recent call last):
-    ...
-    sources.sim.sonar.ScanError: angles[1] = 0.0 is not greater than angles[0] = 0.0: angles must be strictly increasing
-    """
-
-    pose: NDArray[np.float64]
-    angles: NDArray[np.float64]
-    ranges: NDArray[np.float64]
-    target: NDArray[np.str_]
-    order: NDArray[np.int_]
-    params: SonarParams
-
-    def __post_init__(self) -> None:
-        pose = np.array(self.pose, dtype=float)
-        if pose.shape != (3,) or not np.all(np.isfinite(pose)):
-            raise ScanError(f"pose must be three finite numbers (x, y, heading); got {self.pose!r}")
-        angles = np.array(self.angles, dtype=float).reshape(-1)
-        ranges = np.array(self.ranges, dtype=float).reshape(-1)
-        target = np.array(self.target, dtype=str).reshape(-1)
-        order = np.array(self.order, dtype=int).reshape(-1)
-        m = len(angles)
-        for name, arr in (("ranges", ranges), ("target", target), ("order", order)):
-            if len(arr) != m:
-                raise ScanError(f"{name} has {len(arr)} entries but angles has {m}")
-        bad = np.flatnonzero(~np.isfinite(angles))
-        if len(bad):
-            raise ScanError(f"angles[{bad[0]}] = {angles[bad[0]]} is not finite")
-        bad = np.flatnonzero(np.isnan(ranges) | (ranges < 0))
-        if len(bad):
-            raise ScanError(f"ranges[{bad[0]}] = {ranges[bad[0]]}: a range must be a number >= 0")
-        steps = np.diff(angles)
-        bad = np.flatnonzero(steps <= 0)
-        if len(bad):
-            i = bad[0] + 1
-            raise ScanError(
-                f"angles[{i}] = {angles[i]} is not greater than angles[{i - 1}] = {angles[i - 1]}: "
-                "angles must be strictly increasing"
-            )
-        if m and angles[-1] - angles[0] >= 2 * np.pi:
-            raise ScanError(f"angles span {angles[-1] - angles[0]:.6g} rad: a scan covers less than a full turn")
-        bad = np.flatnonzero(order < -1)
-        if len(bad):
-            raise ScanError(f"order[{bad[0]}] = {order[bad[0]]}: an order is -1 (unknown) or >= 0")
-        ranges = np.minimum(ranges, self.params.max_range)
-        for name, arr in (("pose", pose), ("angles", angles), ("ranges", ranges), ("target", target), ("order", order)):
-            object.__setattr__(self, name, _readonly(arr))
-
-    @classmethod
-    def from_readings(
-        cls, angles: ArrayLike, ranges: ArrayLike, params: SonarParams, *, pose: ArrayLike = (0.0, 0.0, 0.0)
-    ) -> SonarScan:
-        """A scan from measured readings (angles in rad, ranges in m); targets unknown.
-
-        Readings at or beyond ``max_range`` get order 0 (no echo), the others -1 (unknown).
-        """
-        r = np.asarray(ranges, dtype=float).reshape(-1)
-        with np.errstate(invalid="ignore"):
-            order = np.where(r >= params.max_range, 0, -1)
-        return cls(np.asarray(pose, dtype=float), angles, r, np.full(len(r), ""), order, params)
-
-    def __len__(self) -> int:
-        return len(self.angles)
-
-    @property
-    def step(self) -> float:
-        """Angle between consecutive readings (rad): the median spacing, or the configured step."""
-        if len(self.angles) >= 2:
-            return float(np.median(np.diff(self.angles)))
-        return float(np.radians(self.params.step_deg))
-
-    @property
-    def closed(self) -> bool:
-        """True when the readings go all round: the last and first are neighbours (gap <= 1.5 steps)."""
-        if len(self.angles) < 2:
-            return False
-        return bool(2 * np.pi - (self.angles[-1] - self.angles[0]) <= 1.5 * self.step)
-
-    @property
-    def points(self) -> NDArray[np.float64]:
-        """(M, 2) world position of every reading: pose + range along the beam axis."""
-        u = np.stack([np.cos(self.angles), np.sin(self.angles)], axis=1)
-        return self.pose[:2] + self.ranges[:, None] * u
 
 
 @dataclass(frozen=True)
