@@ -1,4 +1,7 @@
-"""The figures of the paper's pipeline (maps.app.figures) on the default scenario and a two-pose one."""
+"""The figures of the paper's pipeline (maps.app.figures) on the default scenario and a two-pose one.
+
+What they draw; their counts against report.json are in test_figures_counts.py.
+"""
 
 from __future__ import annotations
 
@@ -10,13 +13,12 @@ from pathlib import Path
 import matplotlib.colors as mcolors
 import numpy as np
 import pytest
-from matplotlib.figure import Figure
-
 from evmap.maps.app import figures
 from evmap.maps.app.run import Run, run_scenario
 from evmap.sources.config import load_config
 from evmap.sources.rcd import extract_rcds
 from evmap.sources.sim.scenario import default_scenario, load_scenario, parse_scenario
+from matplotlib.figure import Figure
 
 TWO_POSES = Path(__file__).parent / "scenarios" / "figures_two_poses.yaml"
 PER_POSE = [f for f in figures.FIGURE_FILES.values() if f not in (figures.merged_map_figure, figures.final_map_figure)]
@@ -89,8 +91,8 @@ def test_per_pose_figures_show_the_chosen_pose(two_poses: Run, make) -> None:
             make(two_poses, bad)
 
 
-def test_map_figures_show_every_pose(two_poses: Run) -> None:
-    for make in (figures.merged_map_figure, figures.final_map_figure):
+def test_map_and_segment_figures_show_every_pose(two_poses: Run) -> None:
+    for make in (figures.lsl_lines_figure, figures.noise_figure, figures.merged_map_figure, figures.final_map_figure):
         fig = make(two_poses)
         robots = [c for c in fig.axes[0].patches if c.get_gid() == "robot"]
         assert sorted(r.center for r in robots) == sorted(map(tuple, two_poses.world.poses[:, :2].tolist()))
@@ -112,12 +114,14 @@ def test_sonar_scan_figure_draws_every_rcd_of_the_figure_parameters(run: Run) ->
 
 
 def test_lsl_figure_tells_phantoms_from_real_segments(run: Run) -> None:
-    truth = run.observations[0].lsl.truth
+    truth = run.map.segments.truth
     fig = figures.lsl_lines_figure(run)
     assert n_segments(fig, "lsl-real") == int((truth == "real").sum())
     assert n_segments(fig, "lsl-phantom") == int((truth == "noise").sum()) > 0
     real, phantom = collection(fig, "lsl-real"), collection(fig, "lsl-phantom")
     assert not np.allclose(real.get_colors()[0], phantom.get_colors()[0])
+    one = figures.lsl_lines_figure(run, 0)
+    assert n_segments(one, "lsl-real") + n_segments(one, "lsl-phantom") == len(run.observations[0].lsl)
 
 
 def test_open_space_figure_marks_multiple_reflections_and_fills_the_open_space(run: Run) -> None:
@@ -132,7 +136,7 @@ def test_open_space_figure_marks_multiple_reflections_and_fills_the_open_space(r
 
 def test_noise_figure_draws_eliminated_segments_faint(run: Run) -> None:
     store = run.map.segments
-    ids = run.outcomes[0].segments
+    ids = np.arange(len(store))
     fig = figures.noise_figure(run)
     gids = ("kept-real", "kept-phantom", "eliminated-real", "eliminated-phantom")
     assert sum(n_segments(fig, g) for g in gids) == len(ids)
@@ -211,17 +215,37 @@ def png_size(path: Path) -> tuple[int, int]:
     return struct.unpack(">II", data[16:24])
 
 
-def test_write_figures_writes_one_png_per_figure(two_poses: Run, tmp_path: Path) -> None:
-    paths = figures.write_figures(two_poses, tmp_path, pose=1)
-    assert [p.name for p in paths] == EXPECTED_FILES == list(figures.FIGURE_FILES)
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(EXPECTED_FILES)
+def test_write_figures_writes_one_png_per_figure_and_per_pose_of_a_scan_figure(two_poses: Run, tmp_path: Path) -> None:
+    paths = figures.write_figures(two_poses, tmp_path)
+    assert EXPECTED_FILES == list(figures.FIGURE_FILES)
+    extra = ["fig2_sonar_scan_rcds_pose1.png", "fig5_open_space_pose1.png", "fig6c_rcd_matching_pose1.png"]
+    assert sorted(p.name for p in paths) == sorted(p.name for p in tmp_path.iterdir()) == sorted(EXPECTED_FILES + extra)
     for path in paths:
         width, height = png_size(path)
         assert width >= 1000 and height >= 700  # 150 dpi: readable
         assert path.stat().st_size > 20_000
-    with pytest.raises(ValueError, match="pose"):
-        figures.write_figures(two_poses, tmp_path / "never", pose=5)
+    with pytest.raises(ValueError, match="figure format must be one of png, svg, pdf; got 'jpg'"):
+        figures.write_figures(two_poses, tmp_path / "never", "jpg")
     assert not (tmp_path / "never").exists()
+
+
+@pytest.mark.parametrize(("fmt", "magic"), [("svg", b"<?xml"), ("pdf", b"%PDF")])
+def test_write_figures_writes_svg_and_pdf_without_a_date(corridor: Run, tmp_path: Path, fmt: str, magic: bytes) -> None:
+    paths = figures.write_figures(corridor, tmp_path, fmt)
+    assert [p.name for p in paths] == [name.replace(".png", f".{fmt}") for name in EXPECTED_FILES]
+    assert all(p.read_bytes().startswith(magic) for p in paths)
+    text = paths[0].read_bytes()
+    assert b"CreationDate" not in text and b"<dc:date>" not in text
+
+
+def test_importing_the_figures_and_the_command_line_loads_no_matplotlib() -> None:
+    code = (
+        "import sys, evmap.maps.app.figures as f, evmap.maps.app.artefacts, evmap.maps.app.cli;"
+        "f.write_figures; f.FORMATS;"
+        "print('matplotlib' in sys.modules, sorted(set(f.__all__) - set(dir(f))))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False []"
 
 
 def test_figures_leave_pyplot_alone() -> None:

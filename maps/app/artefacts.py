@@ -33,8 +33,11 @@ def prepare_out(out: str | Path, force: bool) -> Path:
     return out
 
 
-def write_artefacts(run: Run, out: str | Path, *, force: bool = False, figures: bool = True) -> dict[str, Any]:
-    """Write ``report.json``, ``segments.json``, ``map.json`` and the figures into ``out``; return the report."""
+def write_artefacts(
+    run: Run, out: str | Path, *, force: bool = False, figures: bool = True, figure_format: str = "png"
+) -> dict[str, Any]:
+    """Write ``report.json``, ``segments.json``, ``map.json`` and the figures (as ``figure_format``) into ``out``;
+    return the report."""
     out = prepare_out(out, force)
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
@@ -44,7 +47,7 @@ def write_artefacts(run: Run, out: str | Path, *, force: bool = False, figures: 
         (staging / "segments.json").write_text(json.dumps(segment_records(run)) + "\n")
         run.map.save(staging / "map.json")
         if figures:
-            write_figures(run, staging)
+            write_figures(run, staging, figure_format)
         _move_into_place(staging, out)
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)

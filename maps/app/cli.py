@@ -1,8 +1,9 @@
 """The ``evmap`` command: one function per subcommand.
 
-``evmap run [SCENARIO] [--config FILE] [--rule NAME] [--out DIR] [--force] [--json]``
+``evmap run [SCENARIO] [--config FILE] [--rule NAME] [--out DIR] [--force] [--json] [--figures FORMAT]``
     run the paper's experiment on a scenario (default: the embedded corridor)
     and write ``report.json``, ``segments.json``, ``map.json`` and the figures
+    (``--figures png|svg|pdf|none``, default png; ``--no-figures`` is ``none``)
     into DIR (``docs/SCENARIO.md``); ``--json`` also prints the report on
     standard output, and nothing else goes there.
 ``evmap compare --rules dempster,yager,... --worlds N --seed S --out DIR [--scheduler ADDRESS]``
@@ -79,6 +80,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", default="out", help="directory for the artefacts (default: out)")
     run.add_argument("--force", action="store_true", help="replace the directory if it is not empty")
     run.add_argument("--json", action="store_true", help="print report.json on standard output")
+    run.add_argument(
+        "--figures", choices=["png", "svg", "pdf", "none"], default="png", help="figure format (default: png)"
+    )
+    run.add_argument("--no-figures", dest="figures", action="store_const", const="none", help="same as --figures none")
     run.set_defaults(handler=run_command)
 
     add_compare_parser(commands)
@@ -111,7 +116,13 @@ def run_command(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario) if args.scenario else default_scenario()
     prepare_out(args.out, args.force)
     print(f"evmap: running scenario {scenario.name!r} with rule {cfg.rule!r}", file=sys.stderr)
-    summary = write_artefacts(run_scenario(scenario, cfg), args.out, force=args.force)
+    summary = write_artefacts(
+        run_scenario(scenario, cfg),
+        args.out,
+        force=args.force,
+        figures=args.figures != "none",
+        figure_format=args.figures,
+    )
     kept = summary["noise_segments"] - summary["noise_eliminated"]
     print(
         f"evmap: {summary['noise_eliminated']} of {summary['noise_segments']} phantom lines eliminated "

@@ -1,0 +1,28 @@
+"""Which figures a run has, under which file names (imports every figure, so matplotlib)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from matplotlib.figure import Figure
+
+from evmap.maps.app.figures.line_map import final_map_figure, merged_map_figure
+from evmap.maps.app.figures.lsl import lsl_lines_figure, noise_figure
+from evmap.maps.app.figures.matching import rcd_matching_figure
+from evmap.maps.app.figures.scan import open_space_figure, sonar_scan_figure
+
+__all__ = ["FIGURE_FILES", "SCAN_FIGURES"]
+
+FIGURE_FILES: dict[str, Callable[..., Figure]] = {
+    "fig2_sonar_scan_rcds.png": sonar_scan_figure,
+    "fig4_lsl_lines.png": lsl_lines_figure,
+    "fig5_open_space.png": open_space_figure,
+    "fig6a_noise_eliminated.png": noise_figure,
+    "fig6b_merged_corners.png": merged_map_figure,
+    "fig6c_rcd_matching.png": rcd_matching_figure,
+    "fig7_final_map.png": final_map_figure,
+}
+"""File name (of pose 0, as PNG) -> figure function, in the paper's order (what ``write_figures`` writes)."""
+
+SCAN_FIGURES = (sonar_scan_figure, open_space_figure, rcd_matching_figure)
+"""The figures of one sonar scan: one file per pose. The others show every pose in one file."""
