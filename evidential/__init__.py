@@ -13,7 +13,12 @@ Examples
 from evidential.approximation import Estimate, Summary, monte_carlo_combine, summarize
 from evidential.combination import combine, combine_batch, conflict
 from evidential.conditioning import condition, decondition
-from evidential.construction import consonant_from_possibility, consonant_from_samples, from_focal_sets, imprecise_dirichlet
+from evidential.construction import (
+    consonant_from_possibility,
+    consonant_from_samples,
+    from_focal_sets,
+    imprecise_dirichlet,
+)
 from evidential.decision import ExpectedUtilities, choose, expected_utilities, hurwicz, interval_dominance, maximality
 from evidential.decomposition import (
     conjunctive_weights,
@@ -39,13 +44,11 @@ from evidential.measures import (
 )
 from evidential.product import marginalize, product_frame, vacuous_extension
 from evidential.refinement import coarsen, refine
-from evidential.rules import EMPTY_SET
 from evidential.rules import PROPERTIES, RULES, Rule, register_rule
 from evidential.stack import Stack
 from evidential.view import plot, table
 
 __all__ = [
-    "EMPTY_SET",
     "PROPERTIES",
     "RULES",
     "Estimate",

@@ -12,6 +12,7 @@ import numpy as np
 from evidential.construction import from_focal_sets
 from evidential.errors import FrameError, MassError, TotalConflictError
 from evidential.mass import MassFunction
+from evidential.stack import Stack
 
 
 class Estimate(NamedTuple):
@@ -81,14 +82,22 @@ def monte_carlo_combine(
         raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
     if not 0 < confidence < 1:
         raise MassError(f"confidence must be in (0, 1), got {confidence!r}")
-    draws = [m.masks[rng.choice(len(m), size=samples, p=m.masses / m.masses.sum())] for m in masses]
+    draws = [_draw(m, samples, rng) for m in masses]
     keys = np.bitwise_and.reduce(draws) if len(draws) > 1 else draws[0]
     if normalise:
         keys = keys[keys != 0]
         if not keys.size:
             raise TotalConflictError(f"every one of the {samples} draws has an empty intersection: K is near 1")
     bound = math.sqrt(math.log(2 / (1 - confidence)) / (2 * keys.size))
-    return Estimate(from_focal_sets(frame, keys, np.full(keys.size, 1 / keys.size), open_world=True), bound, keys.size)
+    uniq, counts = np.unique(keys, return_counts=True)
+    return Estimate(MassFunction.from_stack(frame, Stack(uniq, (counts / keys.size)[:, None])), bound, keys.size)
+
+
+def _draw(m: MassFunction, samples: int, rng: np.random.Generator) -> np.ndarray:
+    """``samples`` focal sets of ``m`` drawn by their masses (inverse of the cumulative masses)."""
+    cumulative = np.cumsum(m.masses)
+    index = np.searchsorted(cumulative, rng.random(samples) * cumulative[-1], side="right")
+    return m.masks[np.minimum(index, m.masks.size - 1)]
 
 
 def summarize(m: MassFunction, k: int) -> Summary:

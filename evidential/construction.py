@@ -12,6 +12,7 @@ from numpy.typing import ArrayLike
 from evidential.errors import MassError
 from evidential.frame import Frame
 from evidential.mass import MassFunction
+from evidential.stack import Stack
 
 
 def from_focal_sets(frame: Frame, masks: ArrayLike, masses: ArrayLike, *, open_world: bool = False) -> MassFunction:
@@ -45,10 +46,10 @@ def consonant_from_possibility(frame: Frame, possibility: Mapping[str, float]) -
     unknown = set(possibility) - set(frame.elements)
     if unknown or not (pi.min() >= 0 and abs(pi.max() - 1.0) <= 1e-9):
         raise MassError(f"possibility must map elements of {frame!r} to [0, 1] with maximum 1, got {possibility!r}")
-    levels = np.unique(pi[pi > 0])[::-1]  # decreasing
-    cuts = [int(((pi >= level) << np.arange(len(frame))).sum()) for level in levels]
-    steps = levels - np.append(levels[1:], 0.0)
-    return from_focal_sets(frame, cuts, steps / steps.sum())
+    levels = np.unique(pi[pi > 0])  # increasing: the cuts {π >= level} shrink, their bitmasks decrease
+    cuts = ((pi[None, :] >= levels[:, None]) << np.arange(len(frame))).sum(axis=1)
+    steps = levels - np.append(0.0, levels[:-1])
+    return MassFunction.from_stack(frame, Stack(cuts[::-1], (steps / steps.sum())[::-1, None]))
 
 
 def consonant_from_samples(frame: Frame, samples: Iterable[str]) -> MassFunction:
@@ -108,6 +109,8 @@ def imprecise_dirichlet(frame: Frame, counts: Mapping[str, float], s: float = 2.
     n = np.array([float(counts.get(name, 0.0)) for name in frame.elements])
     if set(counts) - set(frame.elements):
         raise MassError(f"counts name elements not in {frame!r}: {sorted(set(counts) - set(frame.elements))}")
-    total = n.sum() + s
-    masks = np.append(np.int64(1) << np.arange(len(frame)), frame.full)
-    return from_focal_sets(frame, masks, np.append(n, s) / total)
+    masses = np.append(n, s) / (n.sum() + s)
+    if len(frame) == 1:
+        return MassFunction(frame, {frame.full: 1.0})
+    masks = np.append(np.int64(1) << np.arange(len(frame)), frame.full)  # increasing, distinct
+    return MassFunction.from_stack(frame, Stack(masks, masses[:, None]))

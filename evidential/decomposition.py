@@ -35,7 +35,9 @@ def conjunctive_weights(m: MassFunction) -> NDArray[np.float64]:
     """
     q = commonality(m.dense())
     if not q[-1] > 0:
-        raise MassError(f"conjunctive weights need a non-dogmatic mass function (m(Θ) > 0), got m(Θ) = {float(q[-1])!r}")
+        raise MassError(
+            f"conjunctive weights need a non-dogmatic mass function (m(Θ) > 0), got m(Θ) = {float(q[-1])!r}"
+        )
     log_w = -mass_from_commonality(np.log(q))
     log_w[-1] = 0.0
     return np.exp(log_w)

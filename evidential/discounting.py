@@ -83,5 +83,8 @@ def contextual_reinforcement(m: MassFunction, rates: Mapping[Focal, float]) -> M
     {'a': 0.3, 'a|b': 0.3, 'a|c': 0.2, 'a|b|c': 0.2}
     """
     full = m.frame.full
-    simple = [MassFunction(m.frame, {s: b, full: 1.0 - b} if s != full else {full: 1.0}) for s, b in _contexts(m, rates, "rates")]
+    simple = [
+        MassFunction(m.frame, {s: b, full: 1.0 - b} if s != full else {full: 1.0})
+        for s, b in _contexts(m, rates, "rates")
+    ]
     return combine(m, *simple, rule="conjunctive")

@@ -85,7 +85,12 @@ def marginalize(m: MassFunction, frames: Sequence[Frame], axes: int | Sequence[i
     sub = _sub_index(frames, picked)
     member = (m.masks[:, None] >> np.arange(sub.size)) & 1
     keys = np.bitwise_or.reduce(np.where(member == 1, np.int64(1) << sub, 0), axis=1)
-    return from_focal_sets(product_frame(*(frames[a] for a in picked)) if len(picked) > 1 else frames[picked[0]], keys, m.masses, open_world=True)
+    return from_focal_sets(
+        product_frame(*(frames[a] for a in picked)) if len(picked) > 1 else frames[picked[0]],
+        keys,
+        m.masses,
+        open_world=True,
+    )
 
 
 def _same(m: MassFunction, frames: Sequence[Frame]) -> None:

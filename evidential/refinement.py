@@ -25,7 +25,9 @@ def _refining(coarse: Frame, fine: Frame, refining: Mapping[str, Focal]) -> NDAr
     seen = 0
     for name, block in zip(coarse.elements, blocks.tolist()):
         if not block or block & seen:
-            raise FrameError(f"refining of {name!r} must be non-empty and disjoint from the others, got {refining[name]!r}")
+            raise FrameError(
+                f"refining of {name!r} must be non-empty and disjoint from the others, got {refining[name]!r}"
+            )
         seen |= block
     if seen != fine.full:
         raise FrameError(f"refining must cover {fine!r}: {fine.label(fine.full & ~seen)!r} is left out")
@@ -44,7 +46,9 @@ def refine(m: MassFunction, fine: Frame, refining: Mapping[str, Focal]) -> MassF
     """
     blocks = _refining(m.frame, fine, refining)
     member = (m.masks[:, None] >> np.arange(blocks.size)) & 1
-    return from_focal_sets(fine, np.bitwise_or.reduce(np.where(member == 1, blocks, 0), axis=1), m.masses, open_world=True)
+    return from_focal_sets(
+        fine, np.bitwise_or.reduce(np.where(member == 1, blocks, 0), axis=1), m.masses, open_world=True
+    )
 
 
 def coarsen(m: MassFunction, coarse: Frame, refining: Mapping[str, Focal], *, outer: bool = True) -> MassFunction:
@@ -73,4 +77,6 @@ def coarsen(m: MassFunction, coarse: Frame, refining: Mapping[str, Focal], *, ou
     """
     blocks = _refining(coarse, m.frame, refining)
     meets = (m.masks[:, None] & blocks[None, :]) != 0 if outer else (m.masks[:, None] & blocks[None, :]) == blocks
-    return from_focal_sets(coarse, (meets.astype(np.int64) << np.arange(blocks.size)).sum(axis=1), m.masses, open_world=True)
+    return from_focal_sets(
+        coarse, (meets.astype(np.int64) << np.arange(blocks.size)).sum(axis=1), m.masses, open_world=True
+    )

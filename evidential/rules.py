@@ -191,7 +191,9 @@ def _check_result(name: str, function: RuleFunction, open_world: bool, empty_set
                 f"not (K,) integers and (K, {count}) with K >= 1"
             )
         if masks.min() < 0 or masks.max() >= 1 << n or (np.diff(masks) <= 0).any():
-            raise MassError(f"rule {name!r} returned focal sets {masks.tolist()}: not increasing bitmasks of {n} elements")
+            raise MassError(
+                f"rule {name!r} returned focal sets {masks.tolist()}: not increasing bitmasks of {n} elements"
+            )
         if not masses.min() >= -RESULT_TOLERANCE:  # NaN fails too
             k, col = np.argwhere(~(masses >= -RESULT_TOLERANCE))[0]
             raise MassError(

@@ -138,7 +138,9 @@ def test_monte_carlo_on_a_large_frame_and_errors():
     est = monte_carlo_combine(m1, m2, m2, samples=5000, rng=np.random.default_rng(1))
     assert abs(est.mass["e1|e2"] - combine(m1, m2, m2)["e1|e2"]) <= est.error
     with pytest.raises(TotalConflictError):
-        monte_carlo_combine(MassFunction(ABC, {"w0": 1.0}), MassFunction(ABC, {"w1": 1.0}), samples=10, rng=np.random.default_rng())
+        monte_carlo_combine(
+            MassFunction(ABC, {"w0": 1.0}), MassFunction(ABC, {"w1": 1.0}), samples=10, rng=np.random.default_rng()
+        )
     with pytest.raises(TypeError, match="rng must be a numpy.random.Generator"):
         monte_carlo_combine(m1, samples=10, rng=1)
     with pytest.raises(MassError, match="samples must be an integer >= 1, got 0"):

@@ -1,7 +1,7 @@
 """Product frames (vacuous extension, marginalisation), refinement and coarsening."""
 
 import pytest
-from engine_fixtures import FRAMES, assert_same, masses
+from engine_fixtures import assert_same, masses
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

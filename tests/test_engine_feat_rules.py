@@ -91,7 +91,11 @@ def test_pcr5_three_sources_differs_from_pcr6():
     # m1 = {A: .6, B: .4}, m2 = {A: .7, B: .3}, m3 = {B: 1}; m∩(B) = .12, and the clashes
     # (A, A, B) .42 -> A: .42 * .42 / 1.42; (A, B, B) .18 -> A: .18 * .6 / .9; (B, A, B) .28 -> A: .28 * .7 / 1.1.
     ab = FRAMES[2]
-    ms = [MassFunction(ab, {"w0": 0.6, "w1": 0.4}), MassFunction(ab, {"w0": 0.7, "w1": 0.3}), MassFunction(ab, {"w1": 1.0})]
+    ms = [
+        MassFunction(ab, {"w0": 0.6, "w1": 0.4}),
+        MassFunction(ab, {"w0": 0.7, "w1": 0.3}),
+        MassFunction(ab, {"w1": 1.0}),
+    ]
     a5 = 0.42 * 0.42 / 1.42 + 0.18 * 0.6 / 0.9 + 0.28 * 0.7 / 1.1
     a6 = 0.42 * 1.3 / 2.3 + 0.18 * 0.6 / 1.9 + 0.28 * 0.7 / 2.1
     close(combine(*ms, rule="pcr5"), {"w0": a5, "w1": 1 - a5})
@@ -121,7 +125,9 @@ def test_bold_keeps_the_minimum_disjunctive_weights():
 
 
 def test_bold_needs_a_dense_frame():
-    big = MassFunction.from_dict(__import__("evidential").Frame([f"e{i}" for i in range(21)]), {"": 1.0}, open_world=True)
+    big = MassFunction.from_dict(
+        __import__("evidential").Frame([f"e{i}" for i in range(21)]), {"": 1.0}, open_world=True
+    )
     with pytest.raises(MassError, match="at most 20"):
         combine(big, big, rule="bold")
 
@@ -175,7 +181,7 @@ def test_plugin_rule_within_tolerance_passes(plugin):
 
 
 def test_builtin_rules_run_without_result_checks():
-    import evidential.rules as rules
+    from evidential import rules
 
     for name in ALL:
         rule = RULES[name]
