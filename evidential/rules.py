@@ -10,16 +10,23 @@ tests runs every registered rule against its claims.
 
 Adding a rule is one function and one line::
 
-    @register_rule("mean", properties={"commutative", "idempotent"})
+    @register_rule("mean", properties={"commutative", "idempotent"}, empty_set="conflict")
     def mean(sources, n):
         ...
+
+A rule registered from outside the engine (``builtin=False``, the default) is
+wrapped in a checker: a result that is not a stack of mass functions (negative,
+NaN, total off 1, mass on ∅ from a closed-world rule) raises
+:class:`~evidential.errors.MassError` naming the rule, on every path that reaches
+the registry (:func:`~evidential.combine`, :func:`~evidential.combine_batch`).
+The built-in rules, proven by the shared suite, run unchecked.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from functools import reduce
+from functools import reduce, wraps
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,6 +49,17 @@ RuleFunction = Callable[[Sequence[Stack], int], Stack]
 PROPERTIES = frozenset({"commutative", "associative", "vacuous_identity", "idempotent", "bayes_on_bayesian"})
 """Properties a rule may claim. ``bayes_on_bayesian``: equal to ``bayes`` on Bayesian masses."""
 
+EMPTY_SET = {
+    "refuse": "a source with m(∅) > 0 raises MassError naming the rule (closed-world rules)",
+    "conflict": "m(∅) of a source joins the conflict K, which the rule handles as its own (normalised, moved, kept)",
+    "as_set": "∅ is combined as the set it is by the rule's set operation; the result may hold m(∅) > 0",
+    "required": "every source must have m(∅) > 0 (subnormal); a normal source raises MassError naming the rule",
+}
+"""What a rule may do with mass on the empty set in its sources (:attr:`Rule.empty_set`)."""
+
+RESULT_TOLERANCE = 1e-9
+"""Largest distance of a checked (non built-in) rule's total mass from 1, and of a negative mass from 0."""
+
 NEAR_TOTAL_CONFLICT = 1e-2
 """Below this non-conflicting mass, a normalized result is recomputed pairwise (exact sums)."""
 
@@ -61,6 +79,10 @@ class Rule:
         The result keeps the conflict as mass on the empty set.
     nondogmatic : bool
         The rule needs every source non-dogmatic (m(Θ) > 0).
+    empty_set : str
+        What the rule does with sources holding m(∅) > 0: a key of :data:`EMPTY_SET`.
+    builtin : bool
+        A rule of the engine, run unchecked; other rules' results are checked.
     """
 
     name: str
@@ -68,6 +90,8 @@ class Rule:
     properties: frozenset[str]
     open_world: bool = False
     nondogmatic: bool = False
+    empty_set: str = "refuse"
+    builtin: bool = False
 
     def __call__(self, sources: Sequence[Stack], n: int) -> Stack:
         return self.function(sources, n)
@@ -78,32 +102,119 @@ RULES: dict[str, Rule] = {}
 
 
 def register_rule(
-    name: str, *, properties: Iterable[str] = (), open_world: bool = False, nondogmatic: bool = False
+    name: str,
+    *,
+    properties: Iterable[str] = (),
+    open_world: bool = False,
+    nondogmatic: bool = False,
+    empty_set: str = "refuse",
+    builtin: bool = False,
 ) -> Callable[[RuleFunction], RuleFunction]:
     """Decorator registering ``function(sources, n) -> Stack`` in :data:`RULES` as ``name``.
+
+    The registered function (also returned) refuses the sources that ``empty_set``
+    excludes and, unless ``builtin``, checks that the result is a stack of mass
+    functions (closed world unless ``open_world``).
 
     Examples
     --------
     >>> @register_rule("first_source", properties={"idempotent"})
     ... def first_source(sources, n):
     ...     return sources[0]
-    >>> RULES["first_source"].properties
-    frozenset({'idempotent'})
-    >>> del RULES["first_source"]
+    >>> RULES["first_source"].properties, RULES["first_source"].empty_set
+    (frozenset({'idempotent'}), 'refuse')
+    >>> @register_rule("broken")
+    ... def broken(sources, n):
+    ...     return Stack(sources[0].masks, 2 * sources[0].masses)
+    >>> broken([Stack(np.array([1]), np.ones((1, 1)))], 1)
+    Traceback (most recent call last):
+    ...
+    evidential.errors.MassError: rule 'broken' returned masses summing to 2.0 (column 0), not 1 within 1e-09
+    >>> del RULES["first_source"], RULES["broken"]
     """
     claimed = frozenset(properties)
     if claimed - PROPERTIES:
         raise ValueError(
             f"rule {name!r}: unknown properties {sorted(claimed - PROPERTIES)}; known: {sorted(PROPERTIES)}"
         )
+    if empty_set not in EMPTY_SET:
+        raise ValueError(f"rule {name!r}: empty_set must be one of {sorted(EMPTY_SET)}, got {empty_set!r}")
     if name in RULES:
         raise ValueError(f"rule {name!r} is already registered")
 
     def add(function: RuleFunction) -> RuleFunction:
-        RULES[name] = Rule(name, function, claimed, open_world, nondogmatic)
+        if empty_set in ("refuse", "required"):
+            function = _guard_empty_set(name, function, required=empty_set == "required")
+        if not builtin:
+            function = _check_result(name, function, open_world, empty_set)
+        RULES[name] = Rule(name, function, claimed, open_world, nondogmatic, empty_set, builtin)
         return function
 
     return add
+
+
+def _guard_empty_set(name: str, function: RuleFunction, required: bool) -> RuleFunction:
+    """``function`` refusing the sources with m(∅) > 0 (or, if ``required``, with m(∅) = 0)."""
+
+    @wraps(function)
+    def guarded(sources: Sequence[Stack], n: int) -> Stack:
+        for i, s in enumerate(sources):
+            empty = s.masses[0] if s.masks.size and s.masks[0] == 0 else np.zeros(s.masses.shape[1])
+            bad = empty <= 0 if required else empty > 0
+            if bad.any():
+                row = int(np.argmax(bad))
+                where = f", batch row {row}" if empty.size > 1 else ""
+                need = "every source with mass on the empty set" if required else "no mass on the empty set"
+                raise MassError(
+                    f"rule {name!r} needs {need}: source {i}{where} has m(∅) = {float(empty[row])!r} "
+                    f"(empty_set={'required' if required else 'refuse'!r})"
+                )
+        return function(sources, n)
+
+    return guarded
+
+
+def _check_result(name: str, function: RuleFunction, open_world: bool, empty_set: str) -> RuleFunction:
+    """``function`` whose result is checked to be a stack of mass functions over ``n`` elements."""
+
+    @wraps(function)
+    def checked(sources: Sequence[Stack], n: int) -> Stack:
+        out = function(sources, n)
+        try:
+            masks, masses = (np.asarray(a) for a in out)
+        except (TypeError, ValueError):
+            raise MassError(f"rule {name!r} returned {type(out).__name__}, not a Stack (masks, masses)") from None
+        count = sources[0].masses.shape[1]
+        if masks.ndim != 1 or not masks.size or masses.shape != (masks.size, count) or masks.dtype.kind not in "iu":
+            raise MassError(
+                f"rule {name!r} returned masks of shape {masks.shape} and masses of shape {masses.shape}, "
+                f"not (K,) integers and (K, {count}) with K >= 1"
+            )
+        if masks.min() < 0 or masks.max() >= 1 << n or (np.diff(masks) <= 0).any():
+            raise MassError(
+                f"rule {name!r} returned focal sets {masks.tolist()}: not increasing bitmasks of {n} elements"
+            )
+        if not masses.min() >= -RESULT_TOLERANCE:  # NaN fails too
+            k, col = np.argwhere(~(masses >= -RESULT_TOLERANCE))[0]
+            raise MassError(
+                f"rule {name!r} returned mass {float(masses[k, col])!r} on focal set {int(masks[k])} (column {col})"
+            )
+        total = masses.sum(axis=0)
+        off = ~(np.abs(total - 1.0) <= RESULT_TOLERANCE)
+        if off.any():
+            col = int(np.argmax(off))
+            raise MassError(
+                f"rule {name!r} returned masses summing to {float(total[col])!r} (column {col}), "
+                f"not 1 within {RESULT_TOLERANCE}"
+            )
+        if not open_world and empty_set != "as_set" and masks[0] == 0 and masses[0].max() > RESULT_TOLERANCE:
+            col = int(np.argmax(masses[0]))
+            raise MassError(
+                f"rule {name!r} claims a closed world but returned m(∅) = {float(masses[0, col])!r} (column {col})"
+            )
+        return out
+
+    return checked
 
 
 def _fold(sources: Sequence[Stack], n: int, op: np.ufunc) -> Stack:
@@ -148,7 +259,12 @@ def _normalize(sources: Sequence[Stack], n: int) -> Stack:
     return Stack(c.masks[1:], m[1:] / z)
 
 
-@register_rule("dempster", properties={"commutative", "associative", "vacuous_identity", "bayes_on_bayesian"})
+@register_rule(
+    "dempster",
+    properties={"commutative", "associative", "vacuous_identity", "bayes_on_bayesian"},
+    empty_set="conflict",
+    builtin=True,
+)
 def dempster(sources: Sequence[Stack], n: int) -> Stack:
     """Dempster's rule: conjunctive, then the conflict K normalised away.
 
@@ -158,13 +274,19 @@ def dempster(sources: Sequence[Stack], n: int) -> Stack:
     return _normalize(sources, n)
 
 
-@register_rule("conjunctive", properties={"commutative", "associative", "vacuous_identity"}, open_world=True)
+@register_rule(
+    "conjunctive",
+    properties={"commutative", "associative", "vacuous_identity"},
+    open_world=True,
+    empty_set="as_set",
+    builtin=True,
+)
 def conjunctive(sources: Sequence[Stack], n: int) -> Stack:
     """The unnormalized conjunctive rule (TBM, open world): the conflict K stays on ∅."""
     return _conjunctive(sources, n)[0]
 
 
-@register_rule("disjunctive", properties={"commutative", "associative"})
+@register_rule("disjunctive", properties={"commutative", "associative"}, empty_set="as_set", builtin=True)
 def disjunctive(sources: Sequence[Stack], n: int) -> Stack:
     """The disjunctive rule: m(A) = sum over A1 ∪ ... ∪ AS = A of prod m_i(A_i)."""
     if len(sources) > 1 and mobius_cost_wins(sources, n):
@@ -181,13 +303,13 @@ def _move_empty(s: Stack, n: int, target: int) -> Stack:
     return aggregate(keys, s.masses, n)
 
 
-@register_rule("yager", properties={"commutative", "vacuous_identity"})
+@register_rule("yager", properties={"commutative", "vacuous_identity"}, empty_set="conflict", builtin=True)
 def yager(sources: Sequence[Stack], n: int) -> Stack:
     """Yager's rule: conjunctive combination of all sources, the conflict K given to Θ."""
     return _move_empty(_conjunctive(sources, n)[0], n, (1 << n) - 1)
 
 
-@register_rule("dubois_prade", properties={"commutative", "vacuous_identity"})
+@register_rule("dubois_prade", properties={"commutative", "vacuous_identity"}, empty_set="refuse", builtin=True)
 def dubois_prade(sources: Sequence[Stack], n: int) -> Stack:
     """Dubois & Prade's rule: a combination A1, ..., AS with an empty intersection
     gives its mass to the union A1 ∪ ... ∪ AS."""
@@ -201,11 +323,9 @@ def dubois_prade(sources: Sequence[Stack], n: int) -> Stack:
     return aggregate(np.where(inter != 0, inter, union), w, n)
 
 
-@register_rule("pcr6", properties={"commutative", "vacuous_identity"})
-def pcr6(sources: Sequence[Stack], n: int) -> Stack:
-    """PCR6 (Martin & Osswald 2006): each combination X1, ..., XS with an empty
-    intersection gives its mass prod m_j(X_j) back to every X_i in proportion to
-    m_i(X_i); equal to PCR5 for two sources. Not associative: all sources at once."""
+def _clashes(sources: Sequence[Stack]) -> tuple[NDArray[np.int64], NDArray[np.float64], list, list]:
+    """Every combination X1, ..., XS of focal sets: the non-empty intersections and their
+    products, and (sets, masses) per source of the combinations whose intersection is empty."""
     grid = np.indices([s.masks.size for s in sources]).reshape(len(sources), -1)
     sets = [s.masks[g] for s, g in zip(sources, grid)]
     parts = [s.masses[g] for s, g in zip(sources, grid)]
@@ -213,10 +333,52 @@ def pcr6(sources: Sequence[Stack], n: int) -> Stack:
     w = reduce(np.multiply, parts)
     agree = inter != 0
     clash = ~agree
-    total = reduce(np.add, [p[clash] for p in parts])
-    share = np.divide(w[clash], total, out=np.zeros_like(total), where=total > 0)
-    keys = np.concatenate([inter[agree], *(x[clash] for x in sets)])
-    weights = np.concatenate([w[agree], *(p[clash] * share for p in parts)])
+    return inter[agree], w[agree], [x[clash] for x in sets], [p[clash] for p in parts]
+
+
+@register_rule("pcr6", properties={"commutative", "vacuous_identity"}, empty_set="refuse", builtin=True)
+def pcr6(sources: Sequence[Stack], n: int) -> Stack:
+    """PCR6 (Martin & Osswald 2006): each combination X1, ..., XS with an empty
+    intersection gives its mass prod m_j(X_j) back to every X_i in proportion to
+    m_i(X_i); equal to PCR5 for two sources. Not associative: all sources at once.
+    Closed world: a source with m(∅) > 0 is refused."""
+    inter, w, sets, parts = _clashes(sources)
+    conflict = reduce(np.multiply, parts)
+    total = reduce(np.add, parts)
+    share = np.divide(conflict, total, out=np.zeros_like(total), where=total > 0)
+    keys = np.concatenate([inter, *sets])
+    weights = np.concatenate([w, *(p * share for p in parts)])
+    return aggregate(keys, weights, n)
+
+
+@register_rule("pcr5", properties={"commutative", "vacuous_identity"}, empty_set="refuse", builtin=True)
+def pcr5(sources: Sequence[Stack], n: int) -> Stack:
+    """PCR5 for S sources (Smarandache & Dezert 2006, DSmT vol. 2, ch. 1, eq. 1.32):
+    each combination X1, ..., XS with an empty intersection gives its mass
+    prod m_j(X_j) to the distinct sets Y among the X_i, in proportion to the
+    product of the masses the sources naming Y give it. Equal to PCR6 for two
+    sources. Not associative: all sources at once. Closed world: a source with
+    m(∅) > 0 is refused.
+
+    Examples
+    --------
+    >>> a = Stack(np.array([1, 4]), np.array([[0.9], [0.1]]))
+    >>> b = Stack(np.array([2, 4]), np.array([[0.9], [0.1]]))
+    >>> r = pcr5([a, b], 3)
+    >>> r.masks.tolist(), r.masses[:, 0].round(12).tolist()  # Zadeh's example: a, b, c
+    ([1, 2, 4], [0.486, 0.486, 0.028])
+    """
+    inter, w, sets, parts = _clashes(sources)
+    conflict = reduce(np.multiply, parts)
+    group = []  # the product of the masses of the sources naming X_i, and how many name it
+    for x in sets:
+        same = [(x == y)[:, None] for y in sets]
+        product = reduce(np.multiply, [np.where(eq, p, 1.0) for eq, p in zip(same, parts)])
+        group.append((product, reduce(np.add, [eq.astype(np.float64) for eq in same])))
+    total = reduce(np.add, [g / c for g, c in group])  # the sum over the distinct sets
+    share = np.divide(conflict, total, out=np.zeros_like(total), where=total > 0)
+    keys = np.concatenate([inter, *sets])
+    weights = np.concatenate([w, *(g / c * share for g, c in group)])
     return aggregate(keys, weights, n)
 
 
@@ -225,7 +387,7 @@ def _average(sources: Sequence[Stack], n: int) -> Stack:
     return aggregate(keys, np.concatenate([s.masses for s in sources]) / len(sources), n)
 
 
-@register_rule("murphy", properties={"commutative"})
+@register_rule("murphy", properties={"commutative"}, empty_set="conflict", builtin=True)
 def murphy(sources: Sequence[Stack], n: int) -> Stack:
     """Murphy's rule (2000): the average of the S sources, combined with itself by
     Dempster's rule S - 1 times."""
@@ -243,7 +405,9 @@ def _pignistic(s: Stack, n: int) -> NDArray[np.float64]:
     return np.divide(p, z, out=np.zeros_like(p), where=z > 0)
 
 
-@register_rule("bayes", properties={"commutative", "associative", "bayes_on_bayesian"})
+@register_rule(
+    "bayes", properties={"commutative", "associative", "bayes_on_bayesian"}, empty_set="conflict", builtin=True
+)
 def bayes(sources: Sequence[Stack], n: int) -> Stack:
     """The Bayesian alternative: the product of the sources' pignistic probabilities,
     normalised; the result is Bayesian (singletons only)."""
@@ -258,7 +422,32 @@ def bayes(sources: Sequence[Stack], n: int) -> Stack:
     return Stack(np.int64(1) << np.arange(n, dtype=np.int64), p / z)
 
 
-@register_rule("cautious", properties={"commutative", "associative", "idempotent"}, nondogmatic=True)
+def _min_weights(dense: list[NDArray[np.float64]], n: int, rule: str, need: str) -> NDArray[np.float64]:
+    """The unnormalized mass function whose conjunctive weights are the minimum of those of
+    the dense (2**n, N) sources (Denœux 2008); every source needs m(Θ) > 0: ``need`` says
+    what that is for the caller's ``rule``."""
+    log_w = None
+    for i, m in enumerate(dense):
+        q = sweep(m, superset=True, inverse=False)
+        if not q[-1].min() > 0:
+            row = int(np.argmin(q[-1]))
+            where = f", batch row {row}" if q.shape[1] > 1 else ""
+            raise MassError(f"the {rule} rule needs {need}: source {i}{where} has {float(q[-1, row])!r}")
+        lw = -sweep(np.log(q), superset=True, inverse=True)  # ln w(A) for A ≠ Θ
+        log_w = lw if log_w is None else np.minimum(log_w, lw)
+    log_w[-1] = -log_w[:-1].sum(axis=0)  # so that ln q = -(superset sum of ln w)
+    m = sweep(np.exp(-sweep(log_w, superset=True, inverse=False)), superset=True, inverse=True)
+    m[m <= 64 * (n + len(dense)) * np.finfo(np.float64).eps] = 0.0
+    return m
+
+
+@register_rule(
+    "cautious",
+    properties={"commutative", "associative", "idempotent"},
+    nondogmatic=True,
+    empty_set="conflict",
+    builtin=True,
+)
 def cautious(sources: Sequence[Stack], n: int) -> Stack:
     """Denœux's cautious rule (2008), normalised: the minimum of the conjunctive
     canonical weights, w(A) = min_i w_i(A), then ∅ normalised away.
@@ -268,18 +457,33 @@ def cautious(sources: Sequence[Stack], n: int) -> Stack:
     """
     if n > DENSE_MAX_BITS:
         raise MassError(f"the cautious rule needs a frame of at most {DENSE_MAX_BITS} elements, got {n}")
-    log_w = None
-    for i, s in enumerate(sources):
-        q = sweep(to_dense(s, n), superset=True, inverse=False)
-        if not q[-1].min() > 0:
-            row = int(np.argmin(q[-1]))
-            where = f", batch row {row}" if q.shape[1] > 1 else ""
-            raise MassError(
-                f"the cautious rule needs non-dogmatic sources: source {i}{where} has m(Θ) = {float(q[-1, row])!r}"
-            )
-        lw = -sweep(np.log(q), superset=True, inverse=True)  # ln w(A) for A ≠ Θ
-        log_w = lw if log_w is None else np.minimum(log_w, lw)
-    log_w[-1] = -log_w[:-1].sum(axis=0)  # so that ln q = -(superset sum of ln w)
-    m = sweep(np.exp(-sweep(log_w, superset=True, inverse=False)), superset=True, inverse=True)
-    m[m <= 64 * (n + len(sources)) * np.finfo(np.float64).eps] = 0.0
+    m = _min_weights([to_dense(s, n) for s in sources], n, "cautious", "non-dogmatic sources, m(Θ) > 0")
     return Stack(np.arange(1, 1 << n, dtype=np.int64), m[1:] / m[1:].sum(axis=0))
+
+
+@register_rule(
+    "bold",
+    properties={"commutative", "associative", "idempotent"},
+    open_world=True,
+    empty_set="required",
+    builtin=True,
+)
+def bold(sources: Sequence[Stack], n: int) -> Stack:
+    """Denœux's bold disjunctive rule (2008): the minimum of the disjunctive canonical
+    weights, v(A) = min_i v_i(A), the dual of the unnormalized cautious rule.
+
+    Computed as the negation (m̄(A) = m(Ā)) of the unnormalized cautious
+    combination of the negated sources. Every source must be subnormal
+    (m(∅) > 0): the disjunctive weights exist only then. The result is subnormal
+    (open world); frames up to ``DENSE_MAX_BITS`` elements.
+
+    Examples
+    --------
+    >>> s = Stack(np.array([0, 1, 3]), np.array([[0.2], [0.5], [0.3]]))
+    >>> bold([s, s], 2).masses[:, 0].round(12).tolist()  # idempotent
+    [0.2, 0.5, 0.0, 0.3]
+    """
+    if n > DENSE_MAX_BITS:
+        raise MassError(f"the bold rule needs a frame of at most {DENSE_MAX_BITS} elements, got {n}")
+    m = _min_weights([to_dense(s, n)[::-1].copy() for s in sources], n, "bold", "subnormal sources, m(∅) > 0")
+    return full(np.ascontiguousarray(m[::-1]))

@@ -33,20 +33,29 @@ def assert_same(a: MassFunction, b: MassFunction, tol: float = 1e-9) -> None:
     np.testing.assert_allclose(a.dense(), b.dense(), rtol=0, atol=tol)
 
 
+def needs(rule) -> dict:
+    """What a registered rule needs of its sources, as keyword arguments of ``masses``."""
+    return {"nondogmatic": rule.nondogmatic, "subnormal": rule.empty_set == "required"}
+
+
 @st.composite
-def masses(draw, n: int, nondogmatic: bool = False, bayes: bool = False) -> MassFunction:
-    """A random mass function over FRAMES[n] with up to 6 focal sets."""
+def masses(draw, n: int, nondogmatic: bool = False, bayes: bool = False, subnormal: bool = False) -> MassFunction:
+    """A random mass function over FRAMES[n] with up to 6 focal sets (and ∅ if ``subnormal``)."""
     frame = FRAMES[n]
     candidates = [1 << i for i in range(n)] if bayes else list(range(1, 1 << n))
     sets = draw(st.lists(st.sampled_from(candidates), min_size=1, max_size=min(6, len(candidates)), unique=True))
     if nondogmatic and frame.full not in sets:
         sets.append(frame.full)
+    if subnormal:
+        sets.append(0)
     weights = np.array(draw(st.lists(st.floats(0.01, 1.0), min_size=len(sets), max_size=len(sets))))
-    return MassFunction(frame, dict(zip(sets, (weights / weights.sum()).tolist())))
+    return MassFunction(frame, dict(zip(sets, (weights / weights.sum()).tolist())), open_world=subnormal)
 
 
 @st.composite
-def sources(draw, count: int, nondogmatic: bool = False, bayes: bool = False) -> list[MassFunction]:
+def sources(
+    draw, count: int, nondogmatic: bool = False, bayes: bool = False, subnormal: bool = False
+) -> list[MassFunction]:
     """``count`` random mass functions over one frame of 1 to 4 elements."""
     n = draw(st.integers(1, 4))
-    return [draw(masses(n, nondogmatic, bayes)) for _ in range(count)]
+    return [draw(masses(n, nondogmatic, bayes, subnormal)) for _ in range(count)]

@@ -4,7 +4,7 @@ import itertools
 
 import numpy as np
 import pytest
-from engine_fixtures import assert_same, sources, vacuous
+from engine_fixtures import assert_same, needs, sources, vacuous
 from hypothesis import given, reject, settings
 from hypothesis import strategies as st
 
@@ -30,7 +30,7 @@ def run(name, *ms):
 @given(data=st.data())
 def test_result_is_a_valid_mass_function(name, data):
     rule = RULES[name]
-    ms = data.draw(sources(3, nondogmatic=rule.nondogmatic))
+    ms = data.draw(sources(3, **needs(rule)))
     for k in (1, 2, 3):
         m = run(name, *ms[:k])
         assert np.all(m.masses > 0)
@@ -43,7 +43,7 @@ def test_result_is_a_valid_mass_function(name, data):
 @SUITE
 @given(data=st.data())
 def test_bel_betp_pl_ordering_on_results(name, data):
-    ms = data.draw(sources(3, nondogmatic=RULES[name].nondogmatic))
+    ms = data.draw(sources(3, **needs(RULES[name])))
     m = run(name, *ms)
     if m[""] > 0:
         return
@@ -58,7 +58,7 @@ def test_bel_betp_pl_ordering_on_results(name, data):
 @SUITE
 @given(data=st.data())
 def test_commutative(name, data):
-    ms = data.draw(sources(3, nondogmatic=RULES[name].nondogmatic))
+    ms = data.draw(sources(3, **needs(RULES[name])))
     first = run(name, *ms)
     for order in itertools.permutations(ms):
         assert_same(combine(*order, rule=name), first)
@@ -68,7 +68,7 @@ def test_commutative(name, data):
 @SUITE
 @given(data=st.data())
 def test_associative(name, data):
-    a, b, c = data.draw(sources(3, nondogmatic=RULES[name].nondogmatic))
+    a, b, c = data.draw(sources(3, **needs(RULES[name])))
     left = run(name, run(name, a, b), c)
     assert_same(left, combine(a, combine(b, c, rule=name), rule=name))
     assert_same(left, combine(a, b, c, rule=name))
@@ -78,7 +78,7 @@ def test_associative(name, data):
 @SUITE
 @given(data=st.data())
 def test_vacuous_identity(name, data):
-    (m,) = data.draw(sources(1, nondogmatic=RULES[name].nondogmatic))
+    (m,) = data.draw(sources(1, **needs(RULES[name])))
     assert_same(combine(m, vacuous(m.frame), rule=name), m)
     assert_same(combine(vacuous(m.frame), m, rule=name), m)
 
@@ -87,7 +87,7 @@ def test_vacuous_identity(name, data):
 @SUITE
 @given(data=st.data())
 def test_idempotent(name, data):
-    (m,) = data.draw(sources(1, nondogmatic=RULES[name].nondogmatic))
+    (m,) = data.draw(sources(1, **needs(RULES[name])))
     assert_same(combine(m, m, rule=name), m)
     assert_same(combine(m, m, m, rule=name), m)
 

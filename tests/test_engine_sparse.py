@@ -49,7 +49,7 @@ def test_forty_elements_named_sets():
     assert m.pignistic()["e0"] == pytest.approx(0.4)
 
 
-@pytest.mark.parametrize("name", sorted(set(RULES) - {"cautious"}))
+@pytest.mark.parametrize("name", sorted(set(RULES) - {"cautious", "bold"}))  # dense rules
 def test_every_sparse_rule_runs_on_40_elements(name):
     rng = np.random.default_rng(11)
     ms = [MassFunction(BIG, {"e1|e2": 0.5, "e2|e3": 0.25, BIG.full: 0.25}), random_mass(BIG, rng, 4)]
