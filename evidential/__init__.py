@@ -12,7 +12,7 @@ Examples
 
 from evidential.combination import combine, combine_batch, conflict
 from evidential.distance import jousselme_distance
-from evidential.errors import EvidentialError, FrameError, MassError, TotalConflictError
+from evidential.errors import EvidentialError, FrameError, MassError, TotalConflictError, UndefinedTransformError
 from evidential.frame import Frame
 from evidential.mass import MassFunction
 from evidential.rules import PROPERTIES, RULES, Rule, register_rule
@@ -29,6 +29,7 @@ __all__ = [
     "Rule",
     "Stack",
     "TotalConflictError",
+    "UndefinedTransformError",
     "combine",
     "combine_batch",
     "conflict",

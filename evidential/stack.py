@@ -14,6 +14,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from evidential.errors import UndefinedTransformError
 from evidential.transforms import sweep
 
 BINCOUNT_MAX_BITS = 22
@@ -152,3 +153,49 @@ def transform_product(sources: list[Stack], n: int, superset: bool) -> NDArray[n
     if small.any():  # the boolean assignment costs more than the test
         m[small] = 0.0
     return m
+
+
+def membership(masks: NDArray, n: int) -> NDArray[np.float64]:
+    """(K, n) matrix: entry (k, i) is 1 where element ``i`` is in the focal set ``masks[k]``.
+
+    Works for int64 masks and for the Python ints (object arrays) of wide frames.
+
+    Examples
+    --------
+    >>> membership(np.array([1, 6]), 3).tolist()
+    [[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]]
+    """
+    return (masks[:, None] >> np.arange(n) & 1).astype(np.float64)
+
+
+def element_masses(s: Stack, n: int, split: bool) -> NDArray[np.float64]:
+    """(n, N) masses of the elements, the non-empty sets' masses normalised to sum 1 first.
+
+    ``split``: each set's mass is shared equally among its elements (the pignistic
+    probabilities BetP); otherwise each element gets the whole mass of every set
+    holding it (the contour pl({ω}), to be normalised by the caller). Normalising
+    before splitting keeps tiny masses away from underflow.
+
+    Raises
+    ------
+    UndefinedTransformError
+        Where all the mass is on ∅ (m(∅) = 1): there is nothing to share.
+
+    Examples
+    --------
+    >>> element_masses(Stack(np.array([0, 1, 3]), np.array([[0.5], [0.25], [0.25]])), 2, split=True).tolist()
+    [[0.75], [0.25]]
+    """
+    member = membership(s.masks, n)
+    size = member.sum(axis=1)
+    w = s.masses[size > 0]
+    z = w.sum(axis=0)
+    if not z.min() > 0:
+        where = f" (batch row {int(np.argmin(z))})" if z.size > 1 else ""
+        raise UndefinedTransformError(
+            f"all the mass is on the empty set (m(∅) = 1){where}: the pignistic and plausibility transforms are undefined"
+        )
+    w = w / z
+    if split:
+        w /= size[size > 0, None]
+    return np.einsum("ki,kj->ij", member[size > 0], w)  # no BLAS threads
