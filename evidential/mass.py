@@ -87,8 +87,13 @@ class MassFunction:
         )
 
     @classmethod
-    def from_stack(cls, frame: Frame, stack: Stack, column: int = 0) -> MassFunction:
-        """Column ``column`` of a rule's result, trusted as valid (zero masses dropped)."""
+    def from_stack(cls, frame: Frame, stack: Stack, column: int = 0, *, positive: bool = False) -> MassFunction:
+        """Column ``column`` of a rule's result, trusted as valid (zero masses dropped).
+
+        ``positive``: the masses are known to be > 0 (a kernel's output), not even that is checked.
+        """
+        if positive:
+            return cls._new(frame, _read_only(stack.masks, stack.masses[:, column : column + 1]))
         values = stack.masses[:, column]
         keep = values > 0
         if keep.all():
@@ -200,6 +205,11 @@ class MassFunction:
     def masks(self) -> NDArray:
         """The focal sets as bitmasks, increasing (read-only; int64, or Python ints beyond 63 elements)."""
         return self._stack.masks
+
+    @property
+    def stack(self) -> Stack:
+        """The focal sets and masses as a one-column :class:`~evidential.stack.Stack` (read-only arrays)."""
+        return self._stack
 
     @property
     def masses(self) -> NDArray[np.float64]:
