@@ -6,6 +6,13 @@ Workloads (random masses, fixed seed):
   (c) frame of 16, 200 each, through ``combine`` on objects, result included
   (d) frame of 20, 1000 each
   (e) 10,000 independent pairs on {real, noise}, one ``combine_batch`` call
+  (f) frame of 20, one sparse mass function (1000 focal sets): belief and
+      plausibility of 100 sets in one call each, and the pignistic probabilities
+  (g) frame of 20, the dense pignistic transform of all 2**20 sets (peak extra
+      memory per call by ``tracemalloc`` printed beside it)
+  (h) one combination of two MassFunction objects on {real, noise}
+  (i) 100 mass functions on a frame of 10 (8 focal sets each) in one ``combine``
+      call, against folding them pairwise with ``combine``
 
 Peers: py-dempster-shafer (pyds, dict of frozensets) and torchbelief (dense
 tensors for frames up to 16, ``SparseMass`` for sparse workloads, batched dense
@@ -31,12 +38,15 @@ from __future__ import annotations
 
 import multiprocessing
 import time
+import tracemalloc
 from collections.abc import Callable
+from functools import reduce
 from typing import NamedTuple
 
 import numpy as np
 
 from evidential import Frame, MassFunction, combine, combine_batch
+from evidential import transforms as T
 
 pyds = torch = tb = None
 
@@ -163,12 +173,98 @@ def batch_workload(rng: np.random.Generator, pairs: int = 10_000) -> list[Row]:
     return measured(impls, slow)
 
 
+def query_workload(rng: np.random.Generator) -> list[Row]:
+    n, k = 20, 1000
+    frame = Frame([f"e{i}" for i in range(n)])
+    masks, weights = random_masses(rng, n, k)
+    m = MassFunction(frame, dict(zip(masks.tolist(), weights.tolist())))
+    queries = rng.integers(1, 1 << n, size=100)
+
+    def ours() -> object:
+        return m.belief(queries), m.plausibility(queries), m.pignistic()
+
+    impls: list[Impl] = [("evidential", ours)]
+    slow: list[Impl] = []
+    if tb is not None:
+        s = tb.SparseMass(torch.from_numpy(masks), torch.from_numpy(weights), n)
+        events = torch.from_numpy(queries)
+        impls.append(("torchbelief sparse", lambda: (s.belief(events), s.plausibility(events), s.pignistic())))
+    if pyds is not None:
+        p = pyds.MassFunction({frozenset(i for i in range(n) if int(x) >> i & 1): w for x, w in zip(masks, weights)})
+        sets = [frozenset(i for i in range(n) if int(q) >> i & 1) for q in queries]
+        slow.append(("pyds", lambda: ([p.bel(a) for a in sets], [p.pl(a) for a in sets], p.pignistic())))
+    return measured(impls, slow)
+
+
+def peak_memory(f: Callable[[], object]) -> float:
+    """Peak memory allocated during one call of ``f``, in MB (tracemalloc: numpy and torch CPU tensors)."""
+    tracemalloc.start()
+    f()
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return peak / 1e6
+
+
+def pignistic_workload(rng: np.random.Generator) -> list[Row]:
+    n = 20
+    dense = rng.dirichlet(np.ones(1 << n))
+    impls: list[Impl] = [("evidential", lambda: T.pignistic(dense))]
+    if tb is not None:  # torchbelief's dense frames stop at 16: its sparse mass over all the sets
+        s = tb.SparseMass(torch.arange(1 << n), torch.from_numpy(dense), n)
+        impls.append(("torchbelief sparse", s.pignistic))
+    for name, f in impls:
+        print(f"(g) peak extra memory per call, {name}: {peak_memory(f):.1f} MB")
+    return measured(impls, [])
+
+
+def pair_workload(rng: np.random.Generator) -> list[Row]:
+    frame = Frame(["real", "noise"])
+    (a, b) = (rng.dirichlet(np.ones(3)) for _ in range(2))
+    m1 = MassFunction(frame, dict(zip([1, 2, 3], a.tolist())))
+    m2 = MassFunction(frame, dict(zip([1, 2, 3], b.tolist())))
+    impls: list[Impl] = [("evidential", lambda: combine(m1, m2))]
+    if tb is not None:
+        s1 = tb.SparseMass(torch.tensor([1, 2, 3]), torch.from_numpy(a), 2)
+        s2 = tb.SparseMass(torch.tensor([1, 2, 3]), torch.from_numpy(b), 2)
+        impls.append(("torchbelief sparse", lambda: s1.dempster(s2)))
+    slow: list[Impl] = []
+    if pyds is not None:
+        hyp = [frozenset({"real"}), frozenset({"noise"}), frozenset({"real", "noise"})]
+        p1, p2 = pyds.MassFunction(dict(zip(hyp, a.tolist()))), pyds.MassFunction(dict(zip(hyp, b.tolist())))
+        slow.append(("pyds", lambda: p1 & p2))
+    return measured(impls, slow)
+
+
+def nary_workload(rng: np.random.Generator) -> list[Row]:
+    n, k = 10, 8
+    frame = Frame([f"e{i}" for i in range(n)])
+    masses = [MassFunction(frame, dict(zip(*(x.tolist() for x in random_masses(rng, n, k))))) for _ in range(100)]
+    impls: list[Impl] = [
+        ("evidential", lambda: combine(*masses)),
+        ("evidential fold", lambda: reduce(lambda x, y: combine(x, y), masses)),
+    ]
+    slow: list[Impl] = []
+    if pyds is not None:
+        ps = [
+            pyds.MassFunction(
+                {frozenset(i for i in range(n) if x >> i & 1): w for x, w in zip(m.masks.tolist(), m.masses)}
+            )
+            for m in masses
+        ]
+        slow.append(("pyds", lambda: ps[0].combine_conjunctive(ps[1:])))
+    return measured(impls, slow)
+
+
 WORKLOADS: dict[str, Callable[[np.random.Generator], list[Row]]] = {
     "(a) frame 3, full power set": lambda rng: sparse_workload(3, 7, rng),
     "(b) frame 10, 50 focal sets": lambda rng: sparse_workload(10, 50, rng),
     "(c) frame 16, 200 focal sets": lambda rng: sparse_workload(16, 200, rng),
     "(d) frame 20, 1000 focal sets": lambda rng: sparse_workload(20, 1000, rng),
     "(e) 10,000 pairs on {real, noise}": lambda rng: batch_workload(rng),
+    "(f) frame 20, 100 bel + 100 pl + BetP": query_workload,
+    "(g) frame 20, dense pignistic": pignistic_workload,
+    "(h) one pair on {real, noise}": pair_workload,
+    "(i) 100 sources, frame 10, one call": nary_workload,
 }
 
 

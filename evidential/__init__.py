@@ -29,7 +29,7 @@ from evidential.decomposition import (
 )
 from evidential.discounting import contextual_discount, contextual_reinforcement, negation
 from evidential.distance import jousselme_distance
-from evidential.errors import EvidentialError, FrameError, MassError, TotalConflictError
+from evidential.errors import EvidentialError, FrameError, MassError, TotalConflictError, UndefinedTransformError
 from evidential.frame import Frame
 from evidential.mass import MassFunction
 from evidential.measures import (
@@ -63,6 +63,7 @@ __all__ = [
     "Stack",
     "Summary",
     "TotalConflictError",
+    "UndefinedTransformError",
     "belief_distance",
     "choose",
     "coarsen",

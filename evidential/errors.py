@@ -15,3 +15,7 @@ class MassError(EvidentialError):
 
 class TotalConflictError(EvidentialError):
     """The sources are in total conflict (K = 1): a normalized rule is undefined."""
+
+
+class UndefinedTransformError(EvidentialError):
+    """A transform undefined for this mass function: all of its mass is on the empty set (m(∅) = 1)."""

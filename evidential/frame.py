@@ -4,12 +4,18 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
 
+import numpy as np
+
 from evidential.errors import FrameError
 
-MAX_ELEMENTS = 63
-"""Largest frame: focal sets are bitmasks in a signed 64-bit integer."""
+WORD_BITS = 63
+"""Largest frame whose focal sets are one machine word (a signed 64-bit integer).
 
-Focal = int | str | Iterable[str]
+Larger frames (any size) hold their focal sets as Python ints in object arrays:
+the sparse operations work on them, slower; dense views stay limited to small frames.
+"""
+
+Focal = int | np.integer | str | Iterable[str]
 """A focal set as the user writes it: a bitmask, a name, ``"a|b"``, ``""`` or names."""
 
 
@@ -28,9 +34,11 @@ class Frame:
     (3, 2, 3, 'real|noise')
     >>> frame == Frame(["real", "noise"])
     True
+    >>> Frame(["real", "noise"]).dtype, Frame([f"e{i}" for i in range(100)]).dtype
+    (dtype('int64'), dtype('O'))
     """
 
-    __slots__ = ("_elements", "_index", "full")
+    __slots__ = ("_elements", "_index", "dtype", "full")
 
     def __init__(self, elements: Iterable[str]) -> None:
         if isinstance(elements, str):
@@ -38,8 +46,6 @@ class Frame:
         names = tuple(elements)
         if not names:
             raise FrameError("a frame needs at least one element, got none")
-        if len(names) > MAX_ELEMENTS:
-            raise FrameError(f"a frame has at most {MAX_ELEMENTS} elements, got {len(names)}")
         for name in names:
             if not isinstance(name, str) or not name or "|" in name or name != name.strip():
                 raise FrameError(f"frame element {name!r} must be a non-empty string without '|' or surrounding blanks")
@@ -51,6 +57,8 @@ class Frame:
         self._index = index
         self.full = (1 << len(names)) - 1
         """The bitmask of the whole frame (Θ)."""
+        self.dtype = np.dtype(np.int64 if len(names) <= WORD_BITS else object)
+        """The dtype of focal set arrays: int64 up to :data:`WORD_BITS` elements, Python ints beyond."""
 
     @property
     def elements(self) -> tuple[str, ...]:
@@ -78,17 +86,18 @@ class Frame:
         Parameters
         ----------
         focal : int, str or iterable of str
-            A bitmask, an element name, names joined by ``"|"`` (``""`` is the
-            empty set), or an iterable of names.
+            A bitmask (a Python or numpy integer, not a bool), an element name,
+            names joined by ``"|"`` (``""`` is the empty set), or an iterable of names.
 
         Examples
         --------
-        >>> Frame(["a", "b", "c"]).mask(("a", "c"))
-        5
+        >>> Frame(["a", "b", "c"]).mask(("a", "c")), Frame(["a", "b", "c"]).mask(np.int64(5))
+        (5, 5)
         """
-        if isinstance(focal, bool):
+        if isinstance(focal, bool | np.bool_):
             raise FrameError(f"focal set {focal!r} must be a bitmask, a name or names, got a bool")
-        if isinstance(focal, int):
+        if isinstance(focal, int | np.integer):
+            focal = int(focal)
             if not 0 <= focal <= self.full:
                 raise FrameError(f"focal set bitmask {focal} is outside 0..{self.full} of {self!r}")
             return focal

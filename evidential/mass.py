@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from itertools import repeat
 from numbers import Real
 
@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 from evidential.errors import FrameError, MassError, TotalConflictError
 from evidential.frame import Focal, Frame
 from evidential.rules import dempster
-from evidential.stack import DENSE_MAX_BITS, Stack
+from evidential.stack import DENSE_MAX_BITS, Stack, element_masses
 
 SUM_TOLERANCE = 1e-9
 """Largest accepted distance of the total mass from 1."""
@@ -25,7 +25,14 @@ class MassFunction:
     Stored sparse: the focal sets (bitmasks, increasing) and their positive
     masses; :meth:`dense` gives the 2**n vector. Validated on construction:
     masses finite and >= 0, total 1 within 1e-9, focal sets inside the frame,
-    no mass on the empty set ``""`` unless ``open_world=True``.
+    no mass on the empty set ``""`` unless ``open_world=True``. Frames of more
+    than 63 elements hold their focal sets as Python ints (slower, same API).
+
+    A mass function is a value: ``==`` compares the frame and the focal sets
+    with their masses exactly (:meth:`isclose` within a tolerance), and equal
+    mass functions hash alike. Iterating gives the focal sets' labels (in
+    bitmask order); ``focal in m`` tells whether a focal set, written any way
+    :meth:`Frame.mask` reads, has mass.
 
     Parameters
     ----------
@@ -46,6 +53,10 @@ class MassFunction:
     (0.8, 0.9, 0.9)
     >>> m.pignistic()
     {'real': 0.8500000000000001, 'noise': 0.15000000000000002}
+    >>> list(m), "real" in m, "noise|real" in m, 0 in m
+    (['real', 'noise', 'real|noise'], True, True, False)
+    >>> m == MassFunction(frame, {"real|noise": 0.1, "noise": 0.1, "real": 0.8})
+    True
     """
 
     __slots__ = ("_stack", "frame")
@@ -72,12 +83,17 @@ class MassFunction:
         keep = sorted((k, v) for k, (_, v) in found.items() if v > 0)
         self.frame = frame
         self._stack = _read_only(
-            np.array([k for k, _ in keep], dtype=np.int64), np.array([[v] for _, v in keep], dtype=np.float64)
+            np.array([k for k, _ in keep], dtype=frame.dtype), np.array([[v] for _, v in keep], dtype=np.float64)
         )
 
     @classmethod
-    def from_stack(cls, frame: Frame, stack: Stack, column: int = 0) -> MassFunction:
-        """Column ``column`` of a rule's result, trusted as valid (zero masses dropped)."""
+    def from_stack(cls, frame: Frame, stack: Stack, column: int = 0, *, positive: bool = False) -> MassFunction:
+        """Column ``column`` of a rule's result, trusted as valid (zero masses dropped).
+
+        ``positive``: the masses are known to be > 0 (a kernel's output), not even that is checked.
+        """
+        if positive:
+            return cls._new(frame, _read_only(stack.masks, stack.masses[:, column : column + 1]))
         values = stack.masses[:, column]
         keep = values > 0
         if keep.all():
@@ -186,9 +202,14 @@ class MassFunction:
         return cls(frame, {int(b): float(v[b]) for b in np.flatnonzero(v != 0)}, open_world=open_world)
 
     @property
-    def masks(self) -> NDArray[np.int64]:
-        """The focal sets as bitmasks, increasing (read-only)."""
+    def masks(self) -> NDArray:
+        """The focal sets as bitmasks, increasing (read-only; int64, or Python ints beyond 63 elements)."""
         return self._stack.masks
+
+    @property
+    def stack(self) -> Stack:
+        """The focal sets and masses as a one-column :class:`~evidential.stack.Stack` (read-only arrays)."""
+        return self._stack
 
     @property
     def masses(self) -> NDArray[np.float64]:
@@ -203,6 +224,59 @@ class MassFunction:
         masks = self._stack.masks
         i = np.searchsorted(masks, mask)
         return float(self._stack.masses[i, 0]) if i < masks.size and masks[i] == mask else 0.0
+
+    def __iter__(self) -> Iterator[str]:
+        """The labels of the focal sets, in bitmask order (``""`` for ∅)."""
+        return map(self.frame.label, self._stack.masks.tolist())
+
+    def __contains__(self, focal: object) -> bool:
+        """Whether ``focal`` (a bitmask, a name, ``"a|b"`` or names) is a focal set; False outside the frame."""
+        if isinstance(focal, bool | np.bool_) or not isinstance(focal, int | np.integer | str | Iterable):
+            raise TypeError(
+                f"'in' tests a focal set (a bitmask, a name, 'a|b' or names), got {type(focal).__name__} {focal!r}"
+            )
+        try:
+            mask = self.frame.mask(focal)
+        except FrameError:
+            return False
+        masks = self._stack.masks
+        i = np.searchsorted(masks, mask)
+        return bool(i < masks.size and masks[i] == mask)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, MassFunction):
+            return NotImplemented
+        return self is other or (
+            self.frame == other.frame
+            and np.array_equal(self._stack.masks, other._stack.masks)
+            and np.array_equal(self._stack.masses[:, 0], other._stack.masses[:, 0])
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.frame, tuple(self._stack.masks.tolist()), tuple(self._stack.masses[:, 0].tolist())))
+
+    def isclose(self, other: MassFunction, rtol: float = 1e-9, atol: float = 0.0) -> bool:
+        """Whether ``other`` is on the same frame with masses within tolerance, set by set.
+
+        As :func:`math.isclose` on every focal set of either (a missing set has
+        mass 0): ``|a - b| <= max(rtol * max(|a|, |b|), atol)``.
+
+        Examples
+        --------
+        >>> frame = Frame(["a", "b"])
+        >>> m = MassFunction(frame, {"a": 0.3, "b": 0.7})
+        >>> m.isclose(MassFunction(frame, {"a": 0.1 + 0.2, "b": 0.7})), m.isclose(MassFunction(frame, {"a": 1.0}))
+        (True, False)
+        """
+        if not isinstance(other, MassFunction):
+            raise TypeError(f"other must be a MassFunction, got {type(other).__name__}")
+        if self.frame != other.frame:
+            return False
+        keys = np.union1d(self.masks, other.masks)
+        a, b = np.zeros(keys.size), np.zeros(keys.size)
+        a[np.searchsorted(keys, self.masks)] = self.masses
+        b[np.searchsorted(keys, other.masks)] = other.masses
+        return bool(np.all(np.abs(a - b) <= np.maximum(rtol * np.maximum(a, b), atol)))
 
     def __repr__(self) -> str:
         return f"MassFunction({self.frame!r}, {self.to_dict()!r})"
@@ -222,50 +296,91 @@ class MassFunction:
         """
         n = len(self.frame)
         if n > DENSE_MAX_BITS:
-            raise FrameError(f"a dense view needs a frame of at most {DENSE_MAX_BITS} elements, got {n}")
+            raise FrameError(
+                f"a dense view (2**n masses) needs a frame of at most {DENSE_MAX_BITS} elements, got {n}; "
+                "the sparse queries (belief, plausibility, pignistic, to_dict) work on any frame"
+            )
         out = np.zeros(1 << n)
         out[self._stack.masks] = self._stack.masses[:, 0]
         return out
 
-    def _sum(self, selected: NDArray[np.bool_]) -> float:
-        return float(self._stack.masses[selected, 0].sum())
+    def _many(self, focal: Focal | list[Focal] | NDArray) -> NDArray | None:
+        """The bitmasks of a list or array of focal sets; None for one focal set."""
+        if isinstance(focal, list | np.ndarray):
+            return _masks(self.frame, focal, distinct=False)
+        return None
 
-    def belief(self, focal: Focal) -> float:
-        """bel(A): the mass of the non-empty focal sets inside A."""
-        a, masks = self.frame.mask(focal), self._stack.masks
-        return self._sum((masks & ~a == 0) & (masks != 0))
+    def _sums(self, selected: NDArray[np.bool_]) -> float | NDArray[np.float64]:
+        """The mass of the selected focal sets: a float for (K,), an array for (Q, K)."""
+        masses = self._stack.masses[:, 0]
+        if selected.ndim == 1:
+            return float(masses[selected].sum())
+        return np.where(selected, masses, 0.0).sum(axis=1)
 
-    def plausibility(self, focal: Focal) -> float:
-        """pl(A): the mass of the focal sets meeting A."""
-        return self._sum(self._stack.masks & self.frame.mask(focal) != 0)
+    def belief(self, focal: Focal | list[Focal] | NDArray) -> float | NDArray[np.float64]:
+        """bel(A): the mass of the non-empty focal sets inside A.
 
-    def commonality(self, focal: Focal) -> float:
-        """q(A): the mass of the focal sets containing A."""
-        a = self.frame.mask(focal)
-        return self._sum(self._stack.masks & a == a)
+        Parameters
+        ----------
+        focal : focal set, or list or array of focal sets
+            One focal set gives a float; a list or a 1-D array of focal sets
+            (bitmasks or labels) gives an array, one numpy pass over the focal
+            sets for all of them. (A tuple of names is one focal set.)
 
-    def _singletons(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """(K, n) membership of the focal sets, and their sizes."""
-        member = (self._stack.masks[:, None] >> np.arange(len(self.frame)) & 1).astype(np.float64)
-        return member, member.sum(axis=1)
+        Examples
+        --------
+        >>> m = MassFunction(Frame(["a", "b", "c"]), {"a": 0.5, "a|b": 0.25, "c": 0.25})
+        >>> m.belief("a|b"), m.belief(["a", "a|b", 7]).tolist(), m.belief(np.array([4, 0])).tolist()
+        (0.75, [0.5, 0.75, 1.0], [0.25, 0.0])
+        """
+        masks, sets = self._stack.masks, self._many(focal)
+        a = self.frame.mask(focal) if sets is None else sets[:, None]
+        return self._sums((masks & ~a == 0) & (masks != 0))
+
+    def plausibility(self, focal: Focal | list[Focal] | NDArray) -> float | NDArray[np.float64]:
+        """pl(A): the mass of the focal sets meeting A; a list or array of sets gives an array (see :meth:`belief`).
+
+        Examples
+        --------
+        >>> MassFunction(Frame(["a", "b", "c"]), {"a": 0.5, "a|b": 0.25, "c": 0.25}).plausibility([2, 6]).tolist()
+        [0.25, 0.5]
+        """
+        sets = self._many(focal)
+        return self._sums(self._stack.masks & (self.frame.mask(focal) if sets is None else sets[:, None]) != 0)
+
+    def commonality(self, focal: Focal | list[Focal] | NDArray) -> float | NDArray[np.float64]:
+        """q(A): the mass of the focal sets containing A; a list or array of sets gives an array (see :meth:`belief`).
+
+        Examples
+        --------
+        >>> MassFunction(Frame(["a", "b", "c"]), {"a": 0.5, "a|b": 0.25, "c": 0.25}).commonality(["a", ""]).tolist()
+        [0.75, 1.0]
+        """
+        sets = self._many(focal)
+        a = self.frame.mask(focal) if sets is None else sets[:, None]
+        return self._sums(self._stack.masks & a == a)
 
     def pignistic(self) -> dict[str, float]:
-        """The pignistic probabilities BetP(ω) = sum over A ∋ ω of m(A) / |A| / (1 - m(∅))."""
-        member, size = self._singletons()
-        size[size == 0] = np.inf
-        p = (self._stack.masses[:, 0] / size) @ member
-        return dict(zip(self.frame.elements, (p / p.sum()).tolist()))
+        """The pignistic probabilities BetP(ω) = sum over A ∋ ω of m(A) / |A| / (1 - m(∅)).
+
+        Computed on the focal sets alone (never a 2**n vector), the non-empty
+        masses normalised first. Raises
+        :class:`~evidential.errors.UndefinedTransformError` when m(∅) = 1.
+        """
+        p = element_masses(self._stack, len(self.frame), split=True)[:, 0]
+        return dict(zip(self.frame.elements, p.tolist()))
 
     def plausibility_transform(self) -> dict[str, float]:
         """The singleton plausibilities pl({ω}), normalised to sum 1 (Cobb & Shenoy).
+
+        Raises :class:`~evidential.errors.UndefinedTransformError` when m(∅) = 1.
 
         Examples
         --------
         >>> MassFunction(Frame(["a", "b"]), {"a": 0.5, "a|b": 0.5}).plausibility_transform()
         {'a': 0.6666666666666666, 'b': 0.3333333333333333}
         """
-        member, _ = self._singletons()
-        contour = self._stack.masses[:, 0] @ member
+        contour = element_masses(self._stack, len(self.frame), split=False)[:, 0]
         return dict(zip(self.frame.elements, (contour / contour.sum()).tolist()))
 
     def discount(self, reliability: float) -> MassFunction:
@@ -301,7 +416,8 @@ class MassFunction:
         if self.plausibility(a) == 0:
             raise TotalConflictError(f"cannot condition on {self.frame.label(a)!r}: its plausibility is 0 (K = 1)")
         return MassFunction.from_stack(
-            self.frame, dempster([self._stack, Stack(np.array([a]), np.ones((1, 1)))], len(self.frame))
+            self.frame,
+            dempster([self._stack, Stack(np.array([a], dtype=self.frame.dtype), np.ones((1, 1)))], len(self.frame)),
         )
 
     def max_belief(self, candidates: list[Focal] | None = None) -> str:
@@ -317,14 +433,13 @@ class MassFunction:
         >>> MassFunction(Frame(["a", "b"]), {"b": 0.4, "a|b": 0.6}).max_belief()
         'b'
         """
-        sets = (
-            [1 << i for i in range(len(self.frame))] if candidates is None else [self.frame.mask(c) for c in candidates]
-        )
-        scores = [self.belief(s) for s in sets]
-        return self.frame.label(sets[int(np.argmax(scores))])
+        sets = [1 << i for i in range(len(self.frame))] if candidates is None else list(candidates)
+        return self.frame.label(self.frame.mask(sets[int(np.argmax(self.belief(sets)))]))
 
     def max_pignistic(self) -> str:
         """The element with the largest pignistic probability (first in frame order on ties).
+
+        Raises :class:`~evidential.errors.UndefinedTransformError` when m(∅) = 1.
 
         Examples
         --------
@@ -343,16 +458,20 @@ def _read_only(masks: NDArray[np.int64], masses: NDArray[np.float64]) -> Stack:
     return Stack(masks, masses)
 
 
-def _masks(frame: Frame, focal_sets: ArrayLike) -> NDArray[np.int64]:
-    """The distinct focal sets as an int64 array of bitmasks (unsorted), checked against the frame."""
-    if isinstance(focal_sets, np.ndarray) and focal_sets.dtype.kind in "iu":
+def _masks(frame: Frame, focal_sets: ArrayLike, *, distinct: bool = True) -> NDArray:
+    """The focal sets as an array of bitmasks of ``frame.dtype`` (unsorted), checked against the frame.
+
+    ``distinct``: refuse a focal set given twice.
+    """
+    if isinstance(focal_sets, np.ndarray) and focal_sets.dtype.kind in "iu" and frame.dtype != object:
         keys = focal_sets.astype(np.int64).ravel()
         outside = (keys < 0) | (keys > frame.full)
         if outside.any():
             raise FrameError(f"focal set {int(keys[np.argmax(outside)])} is not a subset of {frame!r}")
     else:
-        keys = np.array([frame.mask(f.item() if isinstance(f, np.generic) else f) for f in focal_sets], dtype=np.int64)
-    uniq, counts = np.unique(keys, return_counts=True)
-    if (counts > 1).any():
-        raise MassError(f"focal set {frame.label(int(uniq[np.argmax(counts > 1)]))!r} is given twice")
+        keys = np.array([frame.mask(f.item() if isinstance(f, np.generic) else f) for f in focal_sets], frame.dtype)
+    if distinct:
+        uniq, counts = np.unique(keys, return_counts=True)
+        if (counts > 1).any():
+            raise MassError(f"focal set {frame.label(int(uniq[np.argmax(counts > 1)]))!r} is given twice")
     return keys

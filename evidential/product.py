@@ -2,7 +2,7 @@
 
 The product of the frames Ω1, ..., Ωk has one element per tuple (ω1, ..., ωk),
 named ``"ω1,...,ωk"``, in row-major order (the last variable varies fastest);
-the product has at most 63 elements, as any frame.
+the product has at most :data:`MAX_PRODUCT` elements (one machine word of focal-set bits).
 """
 
 from __future__ import annotations
@@ -18,6 +18,9 @@ from evidential.errors import FrameError
 from evidential.frame import Frame
 from evidential.mass import MassFunction
 
+MAX_PRODUCT = 63
+"""The most elements a product frame may have: its focal sets are computed as one int64 word."""
+
 
 def product_frame(*frames: Frame) -> Frame:
     """The product frame Ω1 × ... × Ωk.
@@ -29,6 +32,9 @@ def product_frame(*frames: Frame) -> Frame:
     """
     if not frames or not all(isinstance(f, Frame) for f in frames):
         raise FrameError(f"product_frame needs one or more Frames, got {frames!r}")
+    size = int(np.prod([len(f) for f in frames]))
+    if size > MAX_PRODUCT:
+        raise FrameError(f"a product frame has at most {MAX_PRODUCT} elements here, got {size}")
     return Frame(",".join(names) for names in tuples(*(f.elements for f in frames)))
 
 

@@ -34,11 +34,14 @@ from numpy.typing import NDArray
 from evidential.errors import MassError, TotalConflictError
 from evidential.stack import (
     DENSE_MAX_BITS,
+    SCALE_FLOOR,
     Stack,
     aggregate,
+    dempster_scaled,
     full,
     mobius_cost_wins,
     pairwise,
+    product_scaled,
     to_dense,
     transform_product,
 )
@@ -245,6 +248,8 @@ def _normalize(sources: Sequence[Stack], n: int) -> Stack:
         exact = _fold([Stack(s.masks, s.masses[:, rows]) for s in sources], n, np.bitwise_and)
         m[:, rows] = to_dense(exact, n)
         z[rows] = m[1:, rows].sum(axis=0)
+    if z.min() < SCALE_FLOOR:  # products may have underflowed: fold again with exponents kept apart
+        return dempster_scaled(list(sources), n)
     if not z.min() > 0:
         row = int(np.argmin(z))
         where = f" (batch row {row})" if z.size > 1 else ""
@@ -411,7 +416,7 @@ def _pignistic(s: Stack, n: int) -> NDArray[np.float64]:
 def bayes(sources: Sequence[Stack], n: int) -> Stack:
     """The Bayesian alternative: the product of the sources' pignistic probabilities,
     normalised; the result is Bayesian (singletons only)."""
-    p = reduce(np.multiply, [_pignistic(s, n) for s in sources])
+    p = product_scaled([_pignistic(s, n) for s in sources])
     z = p.sum(axis=0)
     if not z.min() > 0:
         row = int(np.argmin(z))

@@ -9,11 +9,13 @@ stack with ``masks = arange(2**n)`` and ``masses = batch.T``.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
+from evidential.errors import TotalConflictError, UndefinedTransformError
 from evidential.transforms import sweep
 
 BINCOUNT_MAX_BITS = 22
@@ -123,21 +125,149 @@ def full(dense: NDArray[np.float64]) -> Stack:
     return Stack(np.arange(dense.shape[0], dtype=np.int64), dense)
 
 
-def mobius_cost_wins(sources: list[Stack], n: int) -> bool:
+def mobius_cost_wins(sources: list[Stack], n: int, margin: float = 1.0) -> bool:
     """Whether the fast-Möbius strategy is cheaper than pairwise intersections here.
 
     Costs in element operations: a pair costs about 4 (intersection, product,
     count, copy) per mass function, a transform pass 1 per set and mass function;
-    each numpy call costs about as much as a few thousand elements.
+    each numpy call costs about as much as a few thousand elements. The number
+    of focal sets after each step of the fold is bounded by ``min(2**n, k1 k2)``;
+    where that bound says Möbius, the fold's focal sets are counted for real
+    (intersections of the masks alone, stopping as soon as the fold has cost
+    more than Möbius): intersections shrink, and a fold of many sources often
+    stays small where the bound reaches 2**n. Möbius must be ``margin`` times
+    cheaper (Dempster's rule passes 2: near total conflict, it redoes the fold).
     """
     if n > DENSE_MAX_BITS:
         return False
     size, count = 1 << n, sources[0].masses.shape[1]
+    mobius = margin * mobius_cost(sources, n)
     pairwise, k = 0, sources[0].masks.size
     for s in sources[1:]:
         pairwise += 4 * k * s.masks.size * count + _CALL_COST
         k = min(size, k * s.masks.size)
-    return pairwise > (len(sources) + 1) * n * (size * count + _CALL_COST // 4)
+    if pairwise <= mobius or len(sources) == 2:
+        return pairwise > mobius
+    pairwise, keys, present = 0, sources[0].masks, np.zeros(size, dtype=bool)
+    for s in sources[1:]:
+        pairwise += 4 * keys.size * s.masks.size * count + _CALL_COST
+        if pairwise > mobius:
+            return True
+        present[np.bitwise_and.outer(keys, s.masks)] = True
+        keys = np.flatnonzero(present)
+        present[keys] = False
+    return False
+
+
+PAIR_TABLE_BITS = 16
+"""Up to this many elements, a pair of mass functions is combined through one 2**n table."""
+
+SCALE_FLOOR = 2.0**-969
+"""Below this non-conflicting mass, a plain product may have lost digits to underflow."""
+
+
+def dempster_pair(a: Stack, b: Stack, n: int) -> Stack | None:
+    """Dempster's rule of two single mass functions (N = 1), ∅ dropped.
+
+    The same sums as the rule's pairwise path (one ``bincount`` in pair order,
+    the non-empty masses summed in increasing order), in fewer numpy calls: up to
+    :data:`PAIR_TABLE_BITS` elements through one 2**n table. Masses are divided
+    only where there is conflict. None where the non-conflicting mass is 0 or
+    below :data:`SCALE_FLOOR` (total conflict, or underflow: see :func:`dempster_scaled`).
+    """
+    keys = np.bitwise_and.outer(a.masks, b.masks).ravel()
+    weights = np.multiply.outer(a.masses[:, 0], b.masses[:, 0]).ravel()
+    if n <= PAIR_TABLE_BITS:
+        table = np.bincount(keys, weights, minlength=1 << n)
+        conflict = table[0]
+        table[0] = 0.0
+        (masks,) = table.nonzero()
+        masses = table[masks]
+    else:
+        c = aggregate(keys, weights[:, None], n)
+        empty = c.masks.size > 0 and c.masks[0] == 0
+        conflict = c.masses[0, 0] if empty else 0.0
+        masks, masses = c.masks[int(empty) :], c.masses[int(empty) :, 0]
+    if conflict > 0:
+        z = masses.sum()
+        if not z >= SCALE_FLOOR:
+            return None
+        masses /= z
+    return Stack(masks, masses[:, None])
+
+
+def dempster_fold(sources: list[Stack], n: int, budget: float = math.inf) -> Stack | None:
+    """Dempster's rule of two or more single mass functions folded pair by pair (each step
+    normalised, ∅ dropped): ``combine(combine(a, b), c)`` without the objects.
+
+    None, before a step, where the rest of the fold would cost more than ``budget``
+    (element operations, as :func:`mobius_cost_wins` counts them) at the current
+    number of focal sets: the steps done are spent either way. Raises
+    :class:`TotalConflictError` where a step is in total conflict or underflows
+    (see :func:`dempster_pair`).
+    """
+    result, steps = sources[0], len(sources) - 1
+    pairs = sum(s.masks.size for s in sources[1:])  # focal sets still to meet
+    for s in sources[1:]:
+        if 4 * result.masks.size * pairs + _CALL_COST * steps > budget:
+            return None
+        pairs, steps = pairs - s.masks.size, steps - 1
+        result = dempster_pair(result, s, n)
+        if result is None:
+            raise TotalConflictError("total conflict or underflow in the pairwise fold")
+    return result
+
+
+def mobius_cost(sources: list[Stack], n: int) -> float:
+    """The cost of the fast-Möbius strategy in element operations (inf beyond ``DENSE_MAX_BITS``)."""
+    if n > DENSE_MAX_BITS:
+        return math.inf
+    return (len(sources) + 1) * n * ((1 << n) * sources[0].masses.shape[1] + _CALL_COST // 4)
+
+
+def dempster_scaled(sources: list[Stack], n: int) -> Stack:
+    """Dempster's rule without underflow: products kept as mantissa and exponent.
+
+    Each step of the conjunctive fold drops ∅ and rescales the pair weights by a
+    power of two (exact) so that the largest is in [0.5, 1): masses as small as
+    1e-200 in every source combine to the exact normalised answer where the
+    plain products would underflow to a false total conflict. Raises
+    :class:`~evidential.errors.TotalConflictError` only when no pair of focal
+    sets meets (K = 1 exactly).
+
+    Examples
+    --------
+    >>> a = Stack(np.array([1, 2]), np.array([[1e-200], [1.0]]))
+    >>> b = Stack(np.array([1, 4]), np.array([[1e-200], [1.0]]))
+    >>> s = dempster_scaled([a, b], 3)
+    >>> s.masks.tolist(), s.masses.tolist()
+    ([1], [[1.0]])
+    """
+    mantissa, exponent = _frexp(sources[0].masses)
+    masks = sources[0].masks
+    for s in sources[1:]:
+        m, e = _frexp(s.masses)
+        keys = np.bitwise_and.outer(masks, s.masks).ravel()
+        mantissa = (mantissa[:, None, :] * m[None, :, :]).reshape(keys.size, -1)
+        exponent = (exponent[:, None, :] + e[None, :, :]).reshape(keys.size, -1)
+        meet = (keys != 0) & (mantissa > 0).any(axis=1)
+        keys, mantissa, exponent = keys[meet], mantissa[meet], exponent[meet]
+        if not keys.size:
+            raise TotalConflictError(
+                "total conflict: K = 1.0, the sources share no focal element; Dempster's rule is undefined"
+            )
+        top = np.where(mantissa > 0, exponent, np.iinfo(np.int32).min).max(axis=0)
+        merged = aggregate(keys, np.ldexp(mantissa, exponent - top), n)
+        masks = merged.masks
+        mantissa, exponent = _frexp(merged.masses)
+    total = np.ldexp(mantissa, exponent).sum(axis=0)
+    if not total.min() > 0:
+        row = int(np.argmin(total))
+        where = f" (batch row {row})" if total.size > 1 else ""
+        raise TotalConflictError(
+            f"total conflict{where}: K = 1.0, the sources share no focal element; Dempster's rule is undefined"
+        )
+    return Stack(masks, np.ldexp(mantissa, exponent) / total)
 
 
 def transform_product(sources: list[Stack], n: int, superset: bool) -> NDArray[np.float64]:
@@ -152,3 +282,88 @@ def transform_product(sources: list[Stack], n: int, superset: bool) -> NDArray[n
     if small.any():  # the boolean assignment costs more than the test
         m[small] = 0.0
     return m
+
+
+def membership(masks: NDArray, n: int) -> NDArray[np.float64]:
+    """(K, n) matrix: entry (k, i) is 1 where element ``i`` is in the focal set ``masks[k]``.
+
+    Works for int64 masks and for the Python ints (object arrays) of wide frames.
+
+    Examples
+    --------
+    >>> membership(np.array([1, 6]), 3).tolist()
+    [[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]]
+    """
+    return (masks[:, None] >> np.arange(n) & 1).astype(np.float64)
+
+
+def element_masses(s: Stack, n: int, split: bool) -> NDArray[np.float64]:
+    """(n, N) masses of the elements, the non-empty sets' masses normalised to sum 1 first.
+
+    ``split``: each set's mass is shared equally among its elements (the pignistic
+    probabilities BetP); otherwise each element gets the whole mass of every set
+    holding it (the contour pl({ω}), to be normalised by the caller). Normalising
+    before splitting keeps tiny masses away from underflow.
+
+    Raises
+    ------
+    UndefinedTransformError
+        Where all the mass is on ∅ (m(∅) = 1): there is nothing to share.
+
+    Examples
+    --------
+    >>> element_masses(Stack(np.array([0, 1, 3]), np.array([[0.5], [0.25], [0.25]])), 2, split=True).tolist()
+    [[0.75], [0.25]]
+    """
+    member = membership(s.masks, n)
+    size = member.sum(axis=1)
+    w = s.masses[size > 0]
+    z = w.sum(axis=0)
+    if not z.min() > 0:
+        where = f" (batch row {int(np.argmin(z))})" if z.size > 1 else ""
+        raise UndefinedTransformError(
+            f"all the mass is on the empty set (m(∅) = 1){where}: the pignistic and plausibility transforms are undefined"
+        )
+    w = w / z
+    if split:
+        w /= size[size > 0, None]
+    return np.einsum("ki,kj->ij", member[size > 0], w)  # no BLAS threads
+
+
+def _frexp(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Mantissas in [0.5, 1) and int64 exponents (room for sums of many exponents)."""
+    mantissa, exponent = np.frexp(x)
+    return mantissa, exponent.astype(np.int64)
+
+
+def product_scaled(factors: list[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """The product of (n, N) arrays, each column rescaled by a power of two after every factor.
+
+    Column ``j`` is the plain product times a power of two (exact), without its
+    underflow: the product of 600 factors 0.2 is 0.2**600 = 2**-1393.2, not 0.
+
+    Examples
+    --------
+    >>> p = product_scaled([np.full((2, 1), 0.2)] * 600)
+    >>> (p / p.sum(axis=0)).ravel().tolist()
+    [0.5, 0.5]
+    """
+    product = factors[0].copy()
+    for f in factors[1:]:
+        product *= f
+        top = np.frexp(product.max(axis=0))[1]
+        product = np.ldexp(product, -top)
+    return product
+
+
+def bayes_scaled(sources: list[Stack], n: int) -> Stack:
+    """The ``bayes`` rule (normalised product of the pignistic probabilities) without underflow.
+
+    Raises :class:`~evidential.errors.TotalConflictError` where the product is 0
+    exactly (no element with probability > 0 in every source).
+    """
+    p = product_scaled([element_masses(s, n, split=True) for s in sources])
+    z = p.sum(axis=0)
+    if not z.min() > 0:
+        raise TotalConflictError("total conflict: K = 1.0, the pignistic probabilities have no element in common")
+    return Stack(np.array([1 << i for i in range(n)], dtype=sources[0].masks.dtype), p / z)

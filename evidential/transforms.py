@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evidential.errors import MassError
+from evidential.errors import MassError, UndefinedTransformError
 
 
 def sweep(x: NDArray[np.float64], superset: bool, inverse: bool) -> NDArray[np.float64]:
@@ -34,11 +34,14 @@ def sweep(x: NDArray[np.float64], superset: bool, inverse: bool) -> NDArray[np.f
 
 
 def _dense(m: ArrayLike) -> NDArray[np.float64]:
-    """``m`` as a float array whose last axis has length 2**n, n >= 1."""
+    """``m`` as a finite float array whose last axis has length 2**n, n >= 1."""
     a = np.asarray(m, dtype=np.float64)
     size = a.shape[-1] if a.ndim else 0
     if size < 2 or size & (size - 1):
         raise MassError(f"a dense mass array needs a last axis of length 2**n (n >= 1), got shape {a.shape}")
+    if not np.isfinite(a).all():
+        where = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
+        raise MassError(f"a dense array must be finite: entry {where} is {float(a[where])!r}")
     return a
 
 
@@ -144,36 +147,78 @@ def mass_from_plausibility(pl: ArrayLike) -> NDArray[np.float64]:
     return np.moveaxis(sweep(np.ascontiguousarray(b), superset=False, inverse=True), 0, -1)
 
 
-def _membership(size: int) -> NDArray[np.float64]:
-    """(2**n, n) matrix: entry (A, i) is 1 where element i is in A."""
-    n = size.bit_length() - 1
-    return (np.arange(size)[:, None] >> np.arange(n) & 1).astype(np.float64)
+def _normalized_sets_first(m: ArrayLike) -> NDArray[np.float64]:
+    """A copy of ``m`` with the set axis first, ∅ zeroed and the rest divided by its total.
+
+    Raises :class:`UndefinedTransformError` where every mass is on ∅. Dividing
+    before anything else keeps tiny masses (such as 1e-300) away from underflow.
+    """
+    w = _sets_first(m)
+    w[0] = 0.0
+    z = w.sum(axis=0)
+    if not np.all(z > 0):
+        row = np.argwhere(~(z > 0))[0] if z.ndim else ()
+        where = f" (batch row {tuple(int(i) for i in row)})" if z.ndim else ""
+        raise UndefinedTransformError(
+            f"all the mass is on the empty set (m(∅) = 1){where}: the pignistic and plausibility transforms are undefined"
+        )
+    w /= z
+    return w
+
+
+def _element_sums(w: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(n, ...) sums of ``w`` (2**n, ...) over the sets holding each element; ``w`` is consumed.
+
+    Halves ``w`` once per element, in place: the top bit's sum is that of the upper
+    half, then the upper half is added onto the lower one (about 2 * 2**n additions
+    in all, no temporary larger than the result).
+    """
+    n = w.shape[0].bit_length() - 1
+    out = np.empty((n, *w.shape[1:]))
+    for i in reversed(range(n)):
+        lower, upper = w[: 1 << i], w[1 << i : 2 << i]
+        out[i] = upper.sum(axis=0)
+        lower += upper
+        w = lower
+    return out
+
+
+def _popcounts(n: int) -> NDArray[np.uint8]:
+    """The sizes of the 2**n sets (bytes), ∅ given size 1."""
+    sizes = np.zeros(1 << n, dtype=np.uint8)
+    for i in range(n):
+        sizes[1 << i : 2 << i] = sizes[: 1 << i] + 1
+    sizes[0] = 1
+    return sizes
 
 
 def pignistic(m: ArrayLike) -> NDArray[np.float64]:
     """BetP(ω) = sum over A ∋ ω of m(A) / |A|, divided by 1 - m(∅); shape (..., n).
 
+    Memory-lean: one float64 copy of ``m`` and a byte per set. Raises
+    :class:`~evidential.errors.UndefinedTransformError` where m(∅) = 1.
+
     Examples
     --------
     >>> pignistic([0.0, 0.5, 0.2, 0.3]).tolist()
     [0.65, 0.35]
+    >>> pignistic([0.5, 0.0, 0.0, 0.5]).tolist()
+    [0.5, 0.5]
     """
-    a = _dense(m)
-    member = _membership(a.shape[-1])
-    size = member.sum(axis=1)
-    size[0] = np.inf  # the empty set shares nothing
-    p = (a / size) @ member
-    return p / (1.0 - a[..., :1])
+    w = _normalized_sets_first(m)
+    w /= _popcounts(w.shape[0].bit_length() - 1).reshape(-1, *(1,) * (w.ndim - 1))
+    return np.moveaxis(_element_sums(w), 0, -1)
 
 
 def plausibility_transform(m: ArrayLike) -> NDArray[np.float64]:
     """The singleton plausibilities normalised to sum 1 (Cobb & Shenoy); shape (..., n).
+
+    Raises :class:`~evidential.errors.UndefinedTransformError` where m(∅) = 1.
 
     Examples
     --------
     >>> plausibility_transform([0.0, 0.5, 0.2, 0.3]).round(12).tolist()
     [0.615384615385, 0.384615384615]
     """
-    a = _dense(m)
-    contour = a @ _membership(a.shape[-1])
-    return contour / contour.sum(axis=-1, keepdims=True)
+    contour = _element_sums(_normalized_sets_first(m))
+    return np.moveaxis(contour / contour.sum(axis=0), 0, -1)
