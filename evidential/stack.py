@@ -354,16 +354,3 @@ def product_scaled(factors: list[NDArray[np.float64]]) -> NDArray[np.float64]:
         top = np.frexp(product.max(axis=0))[1]
         product = np.ldexp(product, -top)
     return product
-
-
-def bayes_scaled(sources: list[Stack], n: int) -> Stack:
-    """The ``bayes`` rule (normalised product of the pignistic probabilities) without underflow.
-
-    Raises :class:`~evidential.errors.TotalConflictError` where the product is 0
-    exactly (no element with probability > 0 in every source).
-    """
-    p = product_scaled([element_masses(s, n, split=True) for s in sources])
-    z = p.sum(axis=0)
-    if not z.min() > 0:
-        raise TotalConflictError("total conflict: K = 1.0, the pignistic probabilities have no element in common")
-    return Stack(np.array([1 << i for i in range(n)], dtype=sources[0].masks.dtype), p / z)
