@@ -350,6 +350,7 @@ def _build(spec: ConfigFile, name: str, document: Document | None) -> Config:
                 raise SpecError(at, str(exc)) from None
     if spec.frame not in frames:
         raise SpecError(("frame",), f"unknown frame {spec.frame!r}; frames are: {', '.join(frames)}")
+    _check_map_frame(spec)
     try:
         _check_rule(spec.rule)
     except ValueError as exc:
@@ -393,7 +394,6 @@ def _build(spec: ConfigFile, name: str, document: Document | None) -> Config:
                     f"source {source_name!r} is on frame {source_frame!r}, not on the config's frame {spec.frame!r}",
                 )
         stages[stage] = tuple(names)
-    _check_map_frame(spec)
     warnings = [_check_feature(spec, stage, source_name) for stage in STAGES for source_name in stages[stage]]
     return Config(
         name=name,

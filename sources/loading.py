@@ -294,11 +294,11 @@ def read_document(source: str | Path) -> Document:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     except OSError as exc:
         raise InputError(f"{path}: cannot read file: {exc.strerror or exc}") from None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise InputError(f"{path}: not a regular file (a directory, FIFO, socket or device cannot be read)")
     with os.fdopen(fd, "rb") as file:
         try:
-            mode = os.fstat(fd).st_mode
-            if not stat.S_ISREG(mode):
-                raise InputError(f"{path}: not a regular file (a directory, FIFO, socket or device cannot be read)")
             raw = file.read(MAX_FILE_BYTES + 1)
         except OSError as exc:
             raise InputError(f"{path}: cannot read file: {exc.strerror or exc}") from None
