@@ -52,7 +52,7 @@ __all__ = [
     "validate",
 ]
 
-MAX_FILE_BYTES = 4_000_000
+MAX_FILE_BYTES = 2_000_000
 """Largest YAML file accepted, in bytes."""
 MAX_DEPTH = 32
 """Deepest nesting of collections (a scalar at the top level has depth 1)."""
@@ -146,21 +146,25 @@ def _measure(root: yaml.Node, name: str) -> None:
     height: dict[int, int] = {}
     entered: set[int] = set()
     stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    scalar = yaml.ScalarNode
     while stack:
         node, done = stack.pop()
         key = id(node)
-        if done:
-            kids = _children(node)
-            size[key] = 1 + sum(size[id(k)] for k in kids)
-            height[key] = 1 + max((height[id(k)] for k in kids), default=0)
-            if height[key] > MAX_DEPTH:
+        if done:  # every collection below is measured; a scalar counts 1 node, 1 level
+            total, deepest = 1, 0
+            for kid in _children(node):
+                if kid.__class__ is scalar:
+                    total, deepest = total + 1, max(deepest, 1)
+                else:
+                    total, deepest = total + size[id(kid)], max(deepest, height[id(kid)])
+            size[key], height[key] = total, deepest + 1
+            if deepest + 1 > MAX_DEPTH:
                 raise InputError(
-                    f"{name}: {_mark(node)}: nesting depth of at least {height[key]}, more than the limit of {MAX_DEPTH}"
+                    f"{name}: {_mark(node)}: nesting depth of at least {deepest + 1}, more than the limit of {MAX_DEPTH}"
                 )
-            if size[key] > MAX_NODES:
+            if total > MAX_NODES:
                 raise InputError(
-                    f"{name}: {_mark(node)}: {size[key]} nodes once aliases are expanded, "
-                    f"more than the limit of {MAX_NODES}"
+                    f"{name}: {_mark(node)}: {total} nodes once aliases are expanded, more than the limit of {MAX_NODES}"
                 )
             continue
         if key in size:
@@ -171,7 +175,7 @@ def _measure(root: yaml.Node, name: str) -> None:
             )
         entered.add(key)
         stack.append((node, True))
-        stack.extend((kid, False) for kid in _children(node))
+        stack.extend((kid, False) for kid in _children(node) if kid.__class__ is not scalar)
 
 
 @dataclass(frozen=True)
