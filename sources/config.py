@@ -40,14 +40,14 @@ import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Literal
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictInt
 
 from evidential import RULES, Frame
 from evmap import configs
-from evmap.sources.evidence import KINDS, EvidenceSource, Name, SpecError
-from evmap.sources.loading import InputError, key_path, load_model, validate
+from evmap.sources.evidence import KINDS, EvidenceSource, Name, SpecError, Text
+from evmap.sources.loading import Document, InputError, key_path, read_document, validate
 from evmap.sources.params import (
     CornerParams,
     LslParams,
@@ -67,20 +67,24 @@ __all__ = [
     "MAX_SOURCES",
     "MAX_STAGE_SOURCES",
     "PARAMETER_SECTIONS",
+    "PIPELINE_FEATURES",
     "STAGES",
     "Config",
     "ConfigFile",
+    "Feature",
     "FrameSpec",
     "SensorsParams",
     "StagesSpec",
+    "check_simulated_run",
     "config_from_data",
     "load_config",
 ]
 
 MAX_FRAMES = 16
 """Most frames in one config."""
-MAX_FRAME_ELEMENTS = 16
-"""Most elements in one frame of a config (a dense mass function has ``2**n`` entries)."""
+MAX_FRAME_ELEMENTS = 8
+"""Most elements in one frame of a config: a dense mass function has ``2**n`` entries, one per
+segment and source in a run (20,000 phantom lines on 16 elements needed more than 4 GB)."""
 MAX_ALIASES = 64
 """Most aliases in one frame."""
 MAX_SOURCES = 64
@@ -107,15 +111,46 @@ PARAMETER_SECTIONS: tuple[str, ...] = (
 """The top-level keys holding parameter models, in the order ``evmap config check`` prints them."""
 
 
+@dataclasses.dataclass(frozen=True)
+class Feature:
+    """A feature the pipeline gives the sources of some stages.
+
+    Attributes
+    ----------
+    stages : the stages whose sources are given it.
+    categories : the categories it takes (a table must have a row for each), or ``None``
+        for a number (read by a ramp).
+    """
+
+    stages: tuple[str, ...]
+    categories: tuple[str, ...] | None
+
+
+_SEGMENT_STAGES = ("noise_elimination", "repeated_observation")
+
+PIPELINE_FEATURES: Mapping[str, Feature] = MappingProxyType(
+    {
+        "relation": Feature(_SEGMENT_STAGES, ("outside", "partly_inside", "inside")),
+        "length": Feature(_SEGMENT_STAGES, None),
+        "lsl_other_poses": Feature(_SEGMENT_STAGES, None),
+        "sonar_match": Feature(("reinforcement",), ("matched", "missed", "unobserved")),
+        "rcd_type": Feature(("unidentified",), ("I", "II", "III")),
+    }
+)
+"""The features the pipeline computes, by name. A noise-elimination (or repeated-observation)
+source may also read a feature an observation brings (e.g. from a sensor defined in YAML);
+no built-in sensor computes one, so ``evmap run`` on a simulated scenario cannot use it."""
+
+
 class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
 
 
 class FrameSpec(_Section):
     """A frame: its ordered elements and aliases of focal sets."""
 
     elements: list[Name] = Field(min_length=1, max_length=MAX_FRAME_ELEMENTS)
-    aliases: dict[Name, str] = Field(default_factory=dict, max_length=MAX_ALIASES)
+    aliases: dict[Name, Text] = Field(default_factory=dict, max_length=MAX_ALIASES)
 
 
 class SensorsParams(_Section):
@@ -134,13 +169,19 @@ class StagesSpec(_Section):
     unidentified: list[Name] = Field(min_length=1, max_length=MAX_STAGE_SOURCES)
 
 
+def _known_version(version: int) -> int:
+    if version != 1:
+        raise ValueError("unsupported version: this program reads version 1")
+    return version
+
+
 class ConfigFile(_Section):
     """The structure of a config file, before its sources are built."""
 
-    version: Literal[1] = 1
+    version: Annotated[StrictInt, AfterValidator(_known_version)] = 1
     frames: dict[Name, FrameSpec] = Field(min_length=1, max_length=MAX_FRAMES)
     frame: Name
-    rule: str = "dempster"
+    rule: Text = "dempster"
     sources: dict[Name, dict[str, Any]] = Field(min_length=1, max_length=MAX_SOURCES)
     stages: StagesSpec
     sensors: SensorsParams = SensorsParams()
@@ -170,6 +211,8 @@ class Config:
     stages : stage name -> the names of the sources it combines.
     sensors, rcd, rcd_figure, open_space, noise, merge, corners, matching, unidentified :
         the parameter models of :mod:`evmap.sources.params`.
+    warnings : what a valid config does that may not work: a source reading a feature no
+        built-in sensor computes (``evmap config check`` prints them, see :func:`check_simulated_run`).
     """
 
     name: str
@@ -189,6 +232,7 @@ class Config:
     corners: CornerParams
     matching: MatchParams
     unidentified: UnidentifiedParams
+    warnings: tuple[str, ...] = ()
 
     @property
     def frame(self) -> Frame:
@@ -247,9 +291,8 @@ def load_config(path: str | Path | None = None) -> Config:
     >>> cfg.sources["lsl_length"].masses({"length": [0.2]}).round(3).tolist()
     [[0.0, 0.3, 0.0, 0.7]]
     """
-    source = configs.path("paper.yaml") if path is None else Path(path)
-    name = str(source)
-    return _build_checked(load_model(ConfigFile, source), name)
+    document = read_document(configs.path("paper.yaml") if path is None else Path(path))
+    return _build_checked(document.validate(ConfigFile), document.name, document)
 
 
 def config_from_data(data: Any, name: str) -> Config:
@@ -257,15 +300,39 @@ def config_from_data(data: Any, name: str) -> Config:
     return _build_checked(validate(ConfigFile, data, name), name)
 
 
-def _build_checked(spec: ConfigFile, name: str) -> Config:
-    """:func:`_build`, its first problem raised as an InputError naming the file and key path."""
+def check_simulated_run(config: Config) -> None:
+    """Refuse a config that ``evmap run`` cannot use on a simulated scenario.
+
+    A source of the noise-elimination (or repeated-observation) stage may read a feature
+    that an observation brings; no built-in sensor computes one, so a run on a simulated
+    scenario would fail half-way. :attr:`Config.warnings` says the same for ``config check``.
+
+    Raises
+    ------
+    InputError
+        naming the file, the key path of the source's ``feature`` and the feature.
+
+    >>> check_simulated_run(load_config())
+    >>> check_simulated_run(load_config(configs.path("examples/infrared.yaml")))
+    Traceback (most recent call last):
+    ...
+    evmap.sources.loading.InputError: .../infrared.yaml: sources.infrared.feature: reads feature 'ir_return', ...
+    """
+    if config.warnings:
+        raise InputError(config.warnings[0])
+
+
+def _build_checked(spec: ConfigFile, name: str, document: Document | None = None) -> Config:
+    """:func:`_build`, its first problem raised as an InputError naming the file, line and key path."""
     try:
-        return _build(spec, name)
+        return _build(spec, name, document)
     except SpecError as exc:
+        if document is not None:
+            raise document.error(exc.at, exc.problem) from None
         raise InputError(f"{name}: {key_path(exc.at)}: {exc.problem}") from None
 
 
-def _build(spec: ConfigFile, name: str) -> Config:
+def _build(spec: ConfigFile, name: str, document: Document | None) -> Config:
     """Build frames, check the rule, build sources and check stages; raise SpecError at the first problem."""
     frames: dict[str, Frame] = {}
     for frame_name, fspec in spec.frames.items():
@@ -283,6 +350,7 @@ def _build(spec: ConfigFile, name: str) -> Config:
                 raise SpecError(at, str(exc)) from None
     if spec.frame not in frames:
         raise SpecError(("frame",), f"unknown frame {spec.frame!r}; frames are: {', '.join(frames)}")
+    _check_map_frame(spec)
     try:
         _check_rule(spec.rule)
     except ValueError as exc:
@@ -296,7 +364,7 @@ def _build(spec: ConfigFile, name: str) -> Config:
             raise SpecError((*at, "kind"), f"required key is missing; kinds are: {', '.join(sorted(KINDS))}")
         if not isinstance(kind, str) or kind not in KINDS:
             raise SpecError((*at, "kind"), f"unknown source kind {kind!r}; kinds are: {', '.join(sorted(KINDS))}")
-        source_spec = validate(KINDS[kind].spec, data, name, at)
+        source_spec = validate(KINDS[kind].spec, data, name, at, document)
         if source_spec.frame not in frames:
             raise SpecError((*at, "frame"), f"unknown frame {source_spec.frame!r}; frames are: {', '.join(frames)}")
         frame = frames[source_spec.frame]
@@ -326,7 +394,7 @@ def _build(spec: ConfigFile, name: str) -> Config:
                     f"source {source_name!r} is on frame {source_frame!r}, not on the config's frame {spec.frame!r}",
                 )
         stages[stage] = tuple(names)
-
+    warnings = [_check_feature(spec, stage, source_name) for stage in STAGES for source_name in stages[stage]]
     return Config(
         name=name,
         spec=spec,
@@ -337,7 +405,64 @@ def _build(spec: ConfigFile, name: str) -> Config:
         sources=MappingProxyType(built),
         stages=MappingProxyType(stages),
         **{section: getattr(spec, section) for section in PARAMETER_SECTIONS},
+        warnings=tuple(
+            str(document.error(at, problem) if document is not None else f"{name}: {key_path(at)}: {problem}")
+            for at, problem in dict.fromkeys(w for w in warnings if w is not None)
+        ),
     )
+
+
+def _check_map_frame(spec: ConfigFile) -> None:
+    """The map's frame holds ``real`` (the map's beliefs) and ``noise`` (noise elimination)."""
+    elements = spec.frames[spec.frame].elements
+    missing = [e for e in ("real", "noise") if e not in elements]
+    if missing:
+        raise SpecError(
+            ("frames", spec.frame, "elements"),
+            f"the map's frame needs the elements 'real' (beliefs are Bel(real)) and 'noise' (noise elimination); "
+            f"missing {', '.join(map(repr, missing))} in {elements}",
+        )
+
+
+def _check_feature(spec: ConfigFile, stage: str, source_name: str) -> tuple[tuple[str, ...], str] | None:
+    """Raise SpecError if a stage's source reads a feature the stage never gives, or cannot judge its values.
+
+    Returns a warning (key path, text) for a feature no built-in sensor computes but an
+    observation may bring, else ``None``.
+    """
+    data = spec.sources[source_name]
+    feature, at = data["feature"], ("sources", source_name)
+    known = PIPELINE_FEATURES.get(feature)
+    if known is None or stage not in known.stages:
+        given = [f for f, spec_ in PIPELINE_FEATURES.items() if stage in spec_.stages]
+        if stage not in _SEGMENT_STAGES:
+            raise SpecError(
+                (*at, "feature"),
+                f"stage {stage} gives its sources only the feature {', '.join(map(repr, given))}, not {feature!r}",
+            )
+        return (
+            (*at, "feature"),
+            (
+                f"reads feature {feature!r}, which no built-in sensor computes (stage {stage} computes "
+                f"{', '.join(given)}); `evmap run` on a simulated scenario cannot use this source, only "
+                f"observations that bring {feature!r}"
+            ),
+        )
+    if known.categories is None and data["kind"] == "table":
+        raise SpecError((*at, "kind"), f"feature {feature!r} is a number: read it with a ramp, not a table")
+    if known.categories is not None and data["kind"] == "ramp":
+        raise SpecError(
+            (*at, "kind"), f"feature {feature!r} takes categories {list(known.categories)}: read it with a table"
+        )
+    if known.categories is not None and data["kind"] == "table":
+        missing = [c for c in known.categories if c not in data["categories"]]
+        if missing:
+            raise SpecError(
+                (*at, "categories"),
+                f"feature {feature!r} takes the categories {list(known.categories)}; "
+                f"the table has no row for {', '.join(map(repr, missing))}",
+            )
+    return None
 
 
 def _check_rule(rule: str) -> None:

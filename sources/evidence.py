@@ -34,7 +34,7 @@ from typing import Annotated, Any, Literal, Protocol, TypeVar, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from pydantic import BaseModel, ConfigDict, Field, StringConstraints
+from pydantic import BaseModel, ConfigDict, Field, Strict, StringConstraints
 
 from evidential import Frame
 
@@ -52,6 +52,7 @@ __all__ = [
     "SourceSpec",
     "SpecError",
     "TableSpec",
+    "Text",
     "mass_row",
     "ramp_masses",
     "register_kind",
@@ -62,7 +63,7 @@ MAX_CATEGORIES = 1000
 """Most categories in one table source."""
 MAX_BREAK_POINTS = 1000
 """Most break points in one ramp source."""
-MAX_TABLE_CELLS = 1 << 20
+MAX_TABLE_CELLS = 1 << 16
 """Most dense cells (categories times ``2**n``) in one table source."""
 MASS_TOLERANCE = 1e-9
 """Masses (and ramp proportions) must sum to 1 within this."""
@@ -70,8 +71,10 @@ MASS_TOLERANCE = 1e-9
 FocalResolver = Callable[[str], int]
 """Turns a focal set as written in YAML (an element, ``a|b``, an alias, ``""``) into its bitmask."""
 
-Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z][A-Za-z0-9_-]{0,63}$")]
-Category = Annotated[str, StringConstraints(pattern=r"^[^\x00-\x1f]{1,100}$")]
+Text = Annotated[str, Strict()]
+"""A string: not a number, not binary data (``!!binary``)."""
+Name = Annotated[str, Strict(), StringConstraints(pattern=r"^[A-Za-z][A-Za-z0-9_-]{0,63}$")]
+Category = Annotated[str, Strict(), StringConstraints(pattern=r"^[^\x00-\x1f]{1,100}$")]
 Mass = Annotated[float, Field(strict=True, allow_inf_nan=False)]
 
 
@@ -148,10 +151,10 @@ class SourceSpec(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    kind: str
+    kind: Text
     frame: Name = Field(description="name of a frame declared under `frames`")
     feature: Name = Field(description="the feature of the objects that the source reads")
-    description: str = Field("", max_length=2000, description="free text, shown by `evmap config check`")
+    description: Text = Field("", max_length=2000, description="free text, shown by `evmap config check`")
 
 
 Spec = TypeVar("Spec", bound=SourceSpec)
@@ -302,7 +305,7 @@ class TableSpec(SourceSpec):
     categories: list[Category] = Field(
         min_length=1, max_length=MAX_CATEGORIES, description="every category the feature can take"
     )
-    table: dict[Category, dict[str, Mass]] = Field(
+    table: dict[Category, dict[Text, Mass]] = Field(
         max_length=MAX_CATEGORIES, description="category -> {focal set: mass}"
     )
 
@@ -344,11 +347,11 @@ class RampSpec(SourceSpec):
     """``kind: ramp``: the mass of one focal set piecewise-linear in a continuous feature."""
 
     kind: Literal["ramp"]
-    focal: str = Field(description="the focal set whose mass the ramp gives")
+    focal: Text = Field(description="the focal set whose mass the ramp gives")
     points: list[tuple[Mass, Mass]] = Field(
         min_length=1, max_length=MAX_BREAK_POINTS, description="break points [x, mass], x strictly increasing"
     )
-    rest: dict[str, Mass] = Field(
+    rest: dict[Text, Mass] = Field(
         min_length=1, max_length=64, description="focal set -> share of the remaining mass; shares sum to 1"
     )
 

@@ -253,7 +253,7 @@ RAMP = "sources.lsl_length"
         ("stages.merging", ["sonar_match"], "stages.merging", "unknown key"),
         ("noise.threshold", 1.5, "noise.threshold", "less than or equal to 1"),
         ("sensors.sonar.beam_width", 25, "sensors.sonar.beam_width", "unknown key"),
-        ("version", 2, "version", "Input should be 1"),
+        ("version", 2, "version", "unsupported version: this program reads version 1"),
         ("extra", 1, "extra", "unknown key"),
     ],
 )
@@ -268,6 +268,7 @@ def test_bad_edit_is_named_by_key_path_and_problem(tmp_path, path, value, where,
 
 def test_a_stage_source_on_another_frame_is_refused(tmp_path):
     data = paper_data()
+    data["sources"]["sonar_match_existence"] = dict(data["sources"]["sonar_match"])
     data["frames"]["occupancy"] = {"elements": ["free", "occupied"], "aliases": {"unknown": "free|occupied"}}
     data["sources"]["sonar_match"]["frame"] = "occupancy"
     data["sources"]["sonar_match"]["table"] = {
@@ -276,7 +277,7 @@ def test_a_stage_source_on_another_frame_is_refused(tmp_path):
     with pytest.raises(InputError, match="stages.reinforcement\\[0\\]: source 'sonar_match' is on frame 'occupancy'"):
         load_config(write(tmp_path, data))
     # the same source is fine outside the stages
-    data["stages"]["reinforcement"] = ["sonar_only"]
+    data["stages"]["reinforcement"] = ["sonar_match_existence"]
     cfg = load_config(write(tmp_path, data))
     assert cfg.sources["sonar_match"].frame == Frame(["free", "occupied"])
 
@@ -327,16 +328,16 @@ def test_too_many_categories(tmp_path):
 
 
 def test_too_many_table_cells(tmp_path):
-    # 16 elements (65,536 focal sets) times 17 categories exceeds the cell limit
-    elements = [f"e{i}" for i in range(16)]
-    categories = [f"c{i}" for i in range(MAX_TABLE_CELLS // 2**16 + 1)]
+    # the most elements (256 focal sets) times 257 categories exceeds the cell limit
+    elements = [f"e{i}" for i in range(MAX_FRAME_ELEMENTS)]
+    categories = [f"c{i}" for i in range(MAX_TABLE_CELLS // 2**MAX_FRAME_ELEMENTS + 1)]
     data = paper_data()
     data["frames"]["big"] = {"elements": elements}
     data["sources"]["wide"] = {
         "kind": "table", "frame": "big", "feature": "f", "categories": categories,
         "table": {c: {"e0": 1.0} for c in categories},
     }  # fmt: skip
-    with pytest.raises(InputError, match="sources.wide.categories: 17 categories .* exceed the limit"):
+    with pytest.raises(InputError, match=f"sources.wide.categories: {len(categories)} categories .* exceed the limit"):
         load_config(write(tmp_path, data))
 
 

@@ -13,12 +13,13 @@ from pathlib import Path
 import matplotlib.colors as mcolors
 import numpy as np
 import pytest
+from matplotlib.figure import Figure
+
 from evmap.maps.app import figures
 from evmap.maps.app.run import Run, run_scenario
 from evmap.sources.config import load_config
 from evmap.sources.rcd import extract_rcds
 from evmap.sources.sim.scenario import default_scenario, load_scenario, parse_scenario
-from matplotlib.figure import Figure
 
 TWO_POSES = Path(__file__).parent / "scenarios" / "figures_two_poses.yaml"
 PER_POSE = [f for f in figures.FIGURE_FILES.values() if f not in (figures.merged_map_figure, figures.final_map_figure)]

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+
 from evmap.maps.app.cli import main
 from evmap.maps.app.figures import FIGURE_FILES
 

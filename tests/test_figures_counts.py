@@ -12,12 +12,13 @@ import re
 from pathlib import Path
 
 import pytest
+from matplotlib.figure import Figure
+
 from evmap.maps.app import figures
 from evmap.maps.app.run import Run, report, run_scenario
 from evmap.sources.config import load_config
 from evmap.sources.rcd import extract_rcds
 from evmap.sources.sim.scenario import default_scenario, load_scenario
-from matplotlib.figure import Figure
 
 SCENARIOS = Path(__file__).parent / "scenarios"
 PATROL = Path(__file__).parents[1] / "configs" / "scenarios" / "patrol.yaml"

@@ -76,7 +76,7 @@ BAD = [
     ("sunlight_polygon.yaml", "world.sunlight[0].polygon", "not a simple polygon"),
     ("sensor_key.yaml", "sensors.lsl.fov", "unknown key"),
     ("sonar_step.yaml", "sensors.sonar.step_deg", "greater than or equal to 0.1"),
-    ("version.yaml", "version", "Input should be 1"),
+    ("version.yaml", "version", "unsupported version: this program reads version 1"),
     ("syntax.yaml", "line 5, column 1", "expected ',' or ']'"),
     ("duplicate_key.yaml", "line 6, column 1", "duplicate key 'robot'"),
 ]

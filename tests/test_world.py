@@ -19,7 +19,7 @@ def world_of(walls: list, cylinders: list | None = None, **extra: object) -> Wor
         "version": 1,
         "name": "t",
         "world": {"walls": walls, "cylinders": cylinders or []},
-        "robot": {"poses": [[0, 0, 0]]},
+        "robot": {"poses": [[0.5, 0.5, 0]]},
         **extra,
     }
     return World(Scenario.model_validate(data))

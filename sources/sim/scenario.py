@@ -3,13 +3,14 @@
 A scenario file is untrusted input. It is read with the safe YAML loader of
 :mod:`evmap.sources.loading` and validated by the pydantic models below, every model
 with ``extra="forbid"``; any problem raises :class:`~evmap.sources.loading.InputError`
-naming the file, the key path (``world.walls[3].points``) or the line and column,
-and what is wrong. Sizes are checked against the limits below before anything
-else is validated, so an absurd file costs no work.
+naming the file, the line, the key path (``world.walls[3].points``) and what is
+wrong. Sizes are checked against the limits of :mod:`evmap.sources.sim.spec` before
+anything else is validated, so an absurd file costs no work; types are strict (a
+bool is not a number, a string not a number, binary data not a string).
 
 Checks beyond the types: unknown keys, unknown materials, polylines with fewer
-than two points, zero-length segments, non-finite numbers, a pose inside a
-cylinder, duplicate ids (walls and cylinders share one namespace, and an id
+than two points, zero-length segments, non-finite numbers, coordinates and headings
+out of bounds, a pose inside a cylinder or on a wall, duplicate ids (walls and cylinders share one namespace, and an id
 holds no ``:``, which :mod:`evmap.sources.sim.world` uses to name a wall's segments), a
 sunlight polygon that is not a simple polygon of positive area, and a sunlight
 length range that is empty or too long for its polygon (see :data:`MIN_FIT_RATE`).
@@ -27,22 +28,47 @@ length range that is empty or too long for its polygon (see :data:`MIN_FIT_RATE`
 
 from __future__ import annotations
 
+from numbers import Real
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
 import pydantic_core
 import shapely
-from numpy.typing import NDArray
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
+from pydantic import AfterValidator, Field, field_validator, model_validator
 
 from evmap import configs
-from evmap.sources.loading import load_model, read_yaml, validate
+from evmap.sources.loading import load_model, parse_document
 from evmap.sources.params import LslParams, SonarParams
+from evmap.sources.sim.spec import (
+    MAX_COORDINATE,
+    MAX_CYLINDERS,
+    MAX_HEADING_DEG,
+    MAX_PHANTOMS_PER_RUN,
+    MAX_POLYGON_VERTICES,
+    MAX_POSES,
+    MAX_SUNLIGHT_LINES,
+    MAX_SUNLIGHT_LINES_PER_REGION,
+    MAX_SUNLIGHT_REGIONS,
+    MAX_WALL_SEGMENTS,
+    MIN_POSE_CLEARANCE,
+    MIN_SEGMENT_LENGTH,
+    Coordinate,
+    Count,
+    Heading,
+    Number,
+    Point,
+    SpecModel,
+    Text,
+)
+from evmap.sources.sim.sunlight import MIN_FIT_RATE, Sunlight
 
 __all__ = [
     "BUILTIN_MATERIALS",
+    "MAX_COORDINATE",
     "MAX_CYLINDERS",
+    "MAX_HEADING_DEG",
+    "MAX_PHANTOMS_PER_RUN",
     "MAX_POLYGON_VERTICES",
     "MAX_POSES",
     "MAX_SUNLIGHT_LINES",
@@ -50,6 +76,7 @@ __all__ = [
     "MAX_SUNLIGHT_REGIONS",
     "MAX_WALL_SEGMENTS",
     "MIN_FIT_RATE",
+    "MIN_POSE_CLEARANCE",
     "MIN_SEGMENT_LENGTH",
     "Cylinder",
     "Id",
@@ -65,48 +92,8 @@ __all__ = [
     "parse_scenario",
 ]
 
-MAX_WALL_SEGMENTS = 200_000
-"""Most wall segments (consecutive point pairs, all polylines together) in a scenario."""
 
-MAX_CYLINDERS = 1_000
-"""Most cylinders in a scenario."""
-
-MAX_SUNLIGHT_REGIONS = 100
-"""Most sunlight regions in a scenario."""
-
-MAX_SUNLIGHT_LINES_PER_REGION = 10_000
-"""Most phantom lines one sunlight region makes per pose."""
-
-MAX_SUNLIGHT_LINES = 20_000
-"""Most phantom lines all sunlight regions together make per pose."""
-
-MAX_POLYGON_VERTICES = 1_000
-"""Most vertices of one sunlight polygon."""
-
-MAX_POSES = 1_000
-"""Most robot poses in a scenario."""
-
-MIN_SEGMENT_LENGTH = 1e-6
-"""Wall segments shorter than this (m) are refused as zero-length."""
-
-MIN_FIT_RATE = 0.01
-"""A sunlight line of the shortest and of the longest length of a region's range must
-have both ends inside the polygon for at least this share of random placements (one
-end uniform in the polygon, a uniform direction); otherwise the range is refused as
-too long for the polygon. This keeps the drawing of phantom lines quick."""
-
-_FIT_TRIALS = 4096
-_PLACE_ROUNDS = 500
-_PLACE_CANDIDATES = 32
-
-Point = tuple[float, float]
-
-
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-
-class Material(_Model):
+class Material(SpecModel):
     """How a surface looks to each sensor."""
 
     lsl: Literal["opaque", "transparent"] = Field(description="opaque surfaces return stripe points")
@@ -128,16 +115,16 @@ def _no_colon(name: str) -> str:
     return name
 
 
-Id = Annotated[str, Field(min_length=1, max_length=200), AfterValidator(_no_colon)]
+Id = Annotated[Text, Field(min_length=1, max_length=200), AfterValidator(_no_colon)]
 """A wall or cylinder id: 1 to 200 characters, no ``:``."""
 
 
-class Wall(_Model):
+class Wall(SpecModel):
     """A polyline; every consecutive pair of points is one true wall segment."""
 
     id: Id
     points: list[Point] = Field(min_length=2, description="[x, y] in metres")
-    material: str = "wall"
+    material: Text = "wall"
 
     @field_validator("points")
     @classmethod
@@ -153,108 +140,16 @@ class Wall(_Model):
         return points
 
 
-class Cylinder(_Model):
+class Cylinder(SpecModel):
     """A round pillar."""
 
     id: Id
     center: Point
-    radius: float = Field(gt=0, le=1000)
-    material: str = "wall"
+    radius: Number = Field(gt=0, le=1000)
+    material: Text = "wall"
 
 
-class Sunlight(_Model):
-    """A region where sunlight makes the LSL see phantom lines (drawn anew at every pose)."""
-
-    polygon: list[Point] = Field(min_length=3, max_length=MAX_POLYGON_VERTICES)
-    lines: int = Field(ge=0, le=MAX_SUNLIGHT_LINES_PER_REGION, description="phantom lines per pose")
-    length: tuple[float, float] = Field(description="[min, max] length of a phantom line (m)")
-
-    @field_validator("polygon")
-    @classmethod
-    def _simple_polygon(cls, polygon: list[Point]) -> list[Point]:
-        shape = shapely.Polygon(polygon)
-        if not shape.is_valid:
-            raise ValueError(f"not a simple polygon: {shapely.is_valid_reason(shape)}")
-        if shape.area <= 0:
-            raise ValueError("the polygon has no area")
-        return polygon
-
-    @field_validator("length")
-    @classmethod
-    def _length_fits(cls, length: tuple[float, float], info: ValidationInfo) -> tuple[float, float]:
-        low, high = length
-        if not 0 < low <= high:
-            raise ValueError(f"need 0 < min <= max, got min {low} and max {high}")
-        if "polygon" in info.data:
-            shape = shapely.Polygon(info.data["polygon"])
-            triangles = _triangles(shape)
-            rng = np.random.default_rng(0)
-            for value in (low, high):
-                lengths = np.full(_FIT_TRIALS, value)
-                rate = _try_place(shape, triangles, lengths, rng)[2].mean()
-                if rate < MIN_FIT_RATE:
-                    raise ValueError(
-                        f"a line of {value} m has both ends inside the polygon for only "
-                        f"{rate:.2%} of placements (at least {MIN_FIT_RATE:.0%} needed): too long for the polygon"
-                    )
-        return length
-
-    def draw_lines(self, rng: np.random.Generator) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Draw the region's phantom lines: ``(p, q)``, each ``(lines, 2)``.
-
-        Lengths are uniform in ``length``; one end is uniform in the polygon and the
-        direction uniform, redrawn until the other end is inside the polygon too.
-
-        >>> region = Sunlight(polygon=[[0, 0], [1, 0], [1, 1], [0, 1]], lines=3, length=(0.1, 0.2))
-        >>> p, q = region.draw_lines(np.random.default_rng(1))
-        >>> p.shape, bool(np.all((0.1 <= np.hypot(*(q - p).T)) & (np.hypot(*(q - p).T) <= 0.2)))
-        ((3, 2), True)
-        """
-        shape = shapely.Polygon(self.polygon)
-        triangles = _triangles(shape)
-        lengths = rng.uniform(self.length[0], self.length[1], self.lines)
-        p = np.empty((self.lines, 2))
-        q = np.empty((self.lines, 2))
-        todo = np.arange(self.lines)
-        for _ in range(_PLACE_ROUNDS):
-            if todo.size == 0:
-                break
-            tries = np.repeat(todo, _PLACE_CANDIDATES)
-            a, b, ok = _try_place(shape, triangles, lengths[tries], rng)
-            # the first successful candidate of each line
-            line, first = np.unique(tries[ok], return_index=True)
-            p[line], q[line] = a[ok][first], b[ok][first]
-            todo = np.setdiff1d(todo, line)
-        if todo.size:
-            raise RuntimeError(f"could not place {todo.size} sunlight lines inside {self.polygon}")
-        return p, q
-
-
-def _triangles(shape: shapely.Polygon) -> NDArray[np.float64]:
-    """(T, 3, 2) triangulation of a simple polygon."""
-    parts = shapely.get_parts(shapely.constrained_delaunay_triangles(shape))
-    return shapely.get_coordinates(parts).reshape(len(parts), 4, 2)[:, :3]
-
-
-def _try_place(
-    shape: shapely.Polygon, triangles: NDArray[np.float64], lengths: NDArray[np.float64], rng: np.random.Generator
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """One placement attempt per length: ends ``a`` (uniform in the polygon), ``b``, and whether ``b`` is inside."""
-    a_, b_, c_ = triangles[:, 0], triangles[:, 1], triangles[:, 2]
-    e, f = b_ - a_, c_ - a_
-    area = np.abs(e[:, 0] * f[:, 1] - e[:, 1] * f[:, 0]) / 2
-    pick = rng.choice(len(triangles), size=len(lengths), p=area / area.sum())
-    u, v = rng.random((2, len(lengths)))
-    flip = u + v > 1
-    u, v = np.where(flip, 1 - u, u), np.where(flip, 1 - v, v)
-    a = a_[pick] + u[:, None] * (b_[pick] - a_[pick]) + v[:, None] * (c_[pick] - a_[pick])
-    theta = rng.uniform(0, 2 * np.pi, len(lengths))
-    b = a + lengths[:, None] * np.column_stack([np.cos(theta), np.sin(theta)])
-    inside = shapely.contains_xy(shape, a[:, 0], a[:, 1]) & shapely.contains_xy(shape, b[:, 0], b[:, 1])
-    return a, b, inside
-
-
-class WorldSpec(_Model):
+class WorldSpec(SpecModel):
     """The ``world`` section: walls, cylinders and sunlight regions."""
 
     walls: list[Wall]
@@ -262,13 +157,13 @@ class WorldSpec(_Model):
     sunlight: list[Sunlight] = Field(default_factory=list, max_length=MAX_SUNLIGHT_REGIONS)
 
 
-class Robot(_Model):
+class Robot(SpecModel):
     """The ``robot`` section: the poses ``[x, y, heading_deg]`` the world is observed from."""
 
-    poses: list[tuple[float, float, float]] = Field(min_length=1, max_length=MAX_POSES)
+    poses: list[tuple[Coordinate, Coordinate, Heading]] = Field(min_length=1, max_length=MAX_POSES)
 
 
-class Sensors(_Model):
+class Sensors(SpecModel):
     """The ``sensors`` section: partial overrides of the run config's sensor parameters.
 
     Only the keys written in the file override (pydantic's ``model_fields_set``);
@@ -279,24 +174,26 @@ class Sensors(_Model):
     lsl: LslParams = Field(default_factory=LslParams)
 
 
-class Scenario(_Model):
+class Scenario(SpecModel):
     """A scenario file, validated (``docs/SCENARIO.md``, version 1)."""
 
-    version: Literal[1]
-    name: str = Field(max_length=200)
-    seed: int = Field(0, ge=0, lt=2**63, description="all randomness derives from this")
+    version: Annotated[Count, AfterValidator(_known_version)]
+    name: Text = Field(max_length=200)
+    seed: Count = Field(0, ge=0, lt=2**63, description="all randomness derives from this")
     world: WorldSpec
-    materials: dict[str, Material] = Field(default_factory=dict, max_length=1000)
+    materials: dict[Text, Material] = Field(default_factory=dict, max_length=1000)
     robot: Robot
     sensors: Sensors = Field(default_factory=Sensors)
 
     @model_validator(mode="before")
     @classmethod
     def _check_sizes(cls, data: Any) -> Any:
-        """Refuse absurd sizes before validating anything else."""
+        """Refuse absurd sizes before validating anything else, whatever the YAML type of a count."""
         world = data.get("world") if isinstance(data, dict) else None
+        robot = data.get("robot") if isinstance(data, dict) else None
         walls = world.get("walls") if isinstance(world, dict) else None
         regions = world.get("sunlight") if isinstance(world, dict) else None
+        poses = robot.get("poses") if isinstance(robot, dict) else None
         problems = []
         if isinstance(walls, list):
             count = sum(
@@ -307,7 +204,12 @@ class Scenario(_Model):
                     (("world", "walls"), f"{count} wall segments, more than the limit of {MAX_WALL_SEGMENTS}", count)
                 )
         if isinstance(regions, list):
-            count = sum(r["lines"] for r in regions if isinstance(r, dict) and type(r.get("lines")) is int)
+            # any number counts (10000.0 too); the type is refused later, the size first
+            count = sum(
+                r["lines"]
+                for r in regions
+                if isinstance(r, dict) and isinstance(r.get("lines"), Real) and not isinstance(r["lines"], bool)
+            )
             if count > MAX_SUNLIGHT_LINES:
                 problems.append(
                     (
@@ -316,12 +218,23 @@ class Scenario(_Model):
                         count,
                     )
                 )
+            elif isinstance(poses, list) and count * len(poses) > MAX_PHANTOMS_PER_RUN:
+                problems.append(
+                    (
+                        ("world", "sunlight"),
+                        (
+                            f"{count} sunlight lines from each of {len(poses)} poses make {count * len(poses)} "
+                            f"phantom lines, more than the limit of {MAX_PHANTOMS_PER_RUN} per run"
+                        ),
+                        count,
+                    )
+                )
         _raise(problems)
         return data
 
     @model_validator(mode="after")
     def _check_references(self) -> Scenario:
-        """Materials exist, ids are unique, no pose is inside a cylinder."""
+        """Materials exist, ids are unique, no pose is inside a cylinder or on a wall."""
         known = self.resolved_materials()
         problems = []
         seen: dict[str, str] = {}
@@ -334,10 +247,18 @@ class Scenario(_Model):
                 if item.id in seen:
                     problems.append((("world", kind, i, "id"), f"duplicate id, also {seen[item.id]}", item.id))
                 seen.setdefault(item.id, f"world.{kind}[{i}]")
+        problems += self._poses_on_obstacles()
+        _raise(problems)
+        return self
+
+    def _poses_on_obstacles(self) -> list[tuple[tuple[str | int, ...], str, Any]]:
+        """Poses inside a cylinder or on a wall segment (within :data:`MIN_POSE_CLEARANCE`)."""
+        problems: list[tuple[tuple[str | int, ...], str, Any]] = []
+        origin = np.array(self.robot.poses[0][:2])  # geometry relative to it: no precision lost far away
+        xy = np.array(self.robot.poses)[:, :2] - origin
         if self.world.cylinders:
-            centers = np.array([c.center for c in self.world.cylinders])
+            centers = np.array([c.center for c in self.world.cylinders]) - origin
             radii = np.array([c.radius for c in self.world.cylinders])
-            xy = np.array(self.robot.poses)[:, :2]
             gap = np.hypot(*(xy[:, None, :] - centers[None, :, :]).transpose(2, 0, 1)) - radii
             for i, k in zip(*np.nonzero(gap <= 0)):
                 problems.append(
@@ -347,8 +268,24 @@ class Scenario(_Model):
                         self.robot.poses[i],
                     )
                 )
-        _raise(problems)
-        return self
+        walls = self.world.walls
+        if walls:
+            points = np.array([xy for wall in walls for xy in wall.points]) - origin
+            lines = shapely.linestrings(
+                points, indices=np.repeat(np.arange(len(walls)), [len(w.points) for w in walls])
+            )
+            pose_index, wall_index = shapely.STRtree(lines).query(
+                shapely.points(xy), predicate="dwithin", distance=MIN_POSE_CLEARANCE
+            )
+            for i, k in sorted(zip(pose_index.tolist(), wall_index.tolist())):
+                problems.append(
+                    (
+                        ("robot", "poses", i),
+                        f"pose on wall {walls[k].id!r} (closer than {MIN_POSE_CLEARANCE} m to it)",
+                        self.robot.poses[i],
+                    )
+                )
+        return problems
 
     def resolved_materials(self) -> dict[str, Material]:
         """The built-in materials updated by the scenario's ``materials`` section."""
@@ -369,6 +306,12 @@ class Scenario(_Model):
             overrides = given.model_dump(include=given.model_fields_set)
             merged.append(type(defaults).model_validate({**defaults.model_dump(), **overrides}))
         return merged[0], merged[1]
+
+
+def _known_version(version: int) -> int:
+    if version != 1:
+        raise ValueError("unsupported version: this program reads version 1")
+    return version
 
 
 def _raise(problems: list[tuple[tuple[str | int, ...], str, Any]]) -> None:
@@ -394,9 +337,9 @@ def parse_scenario(text: str, name: str) -> Scenario:
     >>> parse_scenario("version: 1\\nname: x\\nworld: {walls: []}\\nrobot: {poses: []}", "x.yaml")
     Traceback (most recent call last):
     ...
-    evmap.sources.loading.InputError: x.yaml: robot.poses: List should have at least 1 item after validation, not 0 (got [])
+    evmap.sources.loading.InputError: x.yaml: robot.poses: List should have at least 1 item after validation, not 0 (got []) (line 4)
     """
-    return validate(Scenario, read_yaml(text, name), name)
+    return parse_document(text, name).validate(Scenario)
 
 
 def load_scenario(path: str | Path) -> Scenario:

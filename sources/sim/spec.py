@@ -1,0 +1,79 @@
+"""What every scenario model shares: the limits on a scenario, strict scalar types, the base model.
+
+The limits are stated in ``docs/SCENARIO.md`` (section *Limits*) and checked before any
+work begins (see :mod:`evmap.sources.sim.scenario`). Scalars are strict: a bool is not a
+number, a string is not a number, binary data (``!!binary``) is not a string, and a
+count must be an integer (``10000.0`` is refused).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from pydantic import BaseModel, ConfigDict, Field, Strict
+
+__all__ = [
+    "MAX_COORDINATE",
+    "MAX_CYLINDERS",
+    "MAX_HEADING_DEG",
+    "MAX_PHANTOMS_PER_RUN",
+    "MAX_POLYGON_VERTICES",
+    "MAX_POSES",
+    "MAX_SUNLIGHT_LINES",
+    "MAX_SUNLIGHT_LINES_PER_REGION",
+    "MAX_SUNLIGHT_REGIONS",
+    "MAX_WALL_SEGMENTS",
+    "MIN_POSE_CLEARANCE",
+    "MIN_SEGMENT_LENGTH",
+    "Coordinate",
+    "Count",
+    "Heading",
+    "Number",
+    "Point",
+    "SpecModel",
+    "Text",
+]
+
+MAX_WALL_SEGMENTS = 200_000
+"""Most wall segments (consecutive point pairs, all polylines together) in a scenario."""
+MAX_CYLINDERS = 1_000
+"""Most cylinders in a scenario."""
+MAX_SUNLIGHT_REGIONS = 100
+"""Most sunlight regions in a scenario."""
+MAX_SUNLIGHT_LINES_PER_REGION = 10_000
+"""Most phantom lines one sunlight region makes per pose."""
+MAX_SUNLIGHT_LINES = 20_000
+"""Most phantom lines all sunlight regions together make per pose."""
+MAX_PHANTOMS_PER_RUN = 100_000
+"""Most phantom lines over the whole run: poses times the phantom lines of all regions."""
+MAX_POLYGON_VERTICES = 1_000
+"""Most vertices of one sunlight polygon."""
+MAX_POSES = 1_000
+"""Most robot poses in a scenario."""
+MAX_COORDINATE = 1e7
+"""Largest absolute x or y (m): any UTM easting or northing."""
+MAX_HEADING_DEG = 360.0
+"""Largest absolute pose heading (degrees)."""
+MIN_SEGMENT_LENGTH = 1e-6
+"""Wall segments shorter than this (m) are refused as zero-length."""
+MIN_POSE_CLEARANCE = 1e-6
+"""A pose closer than this (m) to a wall segment is refused as standing on the wall."""
+
+Number = Annotated[float, Strict()]
+"""A finite number: an int or a float, not a bool or a string."""
+Count = Annotated[int, Strict()]
+"""An integer: not a bool, not a float such as ``10000.0``."""
+Text = Annotated[str, Strict()]
+"""A string: not a number, not binary data."""
+Coordinate = Annotated[float, Strict(), Field(ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
+"""An x or y in metres, within :data:`MAX_COORDINATE`."""
+Heading = Annotated[float, Strict(), Field(ge=-MAX_HEADING_DEG, le=MAX_HEADING_DEG)]
+"""A heading in degrees, within :data:`MAX_HEADING_DEG`."""
+Point = tuple[Coordinate, Coordinate]
+"""``[x, y]`` in metres."""
+
+
+class SpecModel(BaseModel):
+    """Base of the scenario models: unknown keys refused, immutable, finite numbers only."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)

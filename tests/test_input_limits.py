@@ -1,0 +1,252 @@
+"""Hostile and careless input: bombs, endless files, deep nesting, disguised counts, coercions, far coordinates.
+
+Every case must end quickly with an InputError that names the file, the key path (or line
+and column), the limit or the rule, and the value; none may run away in time or memory.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from evmap import configs
+from evmap.sources.config import check_simulated_run, load_config
+from evmap.sources.loading import MAX_DEPTH, MAX_FILE_BYTES, MAX_NODES, InputError, parse_document, read_document
+from evmap.sources.params import LslParams
+from evmap.sources.sim.lsl import observe_lsl_all
+from evmap.sources.sim.scenario import MAX_PHANTOMS_PER_RUN, MAX_SUNLIGHT_LINES, load_scenario, parse_scenario
+from evmap.sources.sim.world import World
+
+CORRIDOR = configs.path("scenarios/corridor.yaml")
+PAPER = configs.path("paper.yaml")
+
+BOMB = """\
+a: &a ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]
+b: &b [*a, *a, *a, *a, *a, *a, *a, *a, *a]
+c: &c [*b, *b, *b, *b, *b, *b, *b, *b, *b]
+d: &d [*c, *c, *c, *c, *c, *c, *c, *c, *c]
+e: &e [*d, *d, *d, *d, *d, *d, *d, *d, *d]
+f: &f [*e, *e, *e, *e, *e, *e, *e, *e, *e]
+g: &g [*f, *f, *f, *f, *f, *f, *f, *f, *f]
+h: &h [*g, *g, *g, *g, *g, *g, *g, *g, *g]
+i: &i [*h, *h, *h, *h, *h, *h, *h, *h, *h]
+version: 1
+name: *i
+"""
+
+
+def scenario_text(**replace: str) -> str:
+    """The corridor's text with some lines replaced (key -> new line)."""
+    text = CORRIDOR.read_text()
+    for old, new in replace.items():
+        assert old in text
+        text = text.replace(old, new)
+    return text
+
+
+def corridor_data() -> dict:
+    return yaml.safe_load(CORRIDOR.read_text())
+
+
+def test_alias_bomb_is_refused_in_well_under_a_second() -> None:
+    start = time.perf_counter()
+    with pytest.raises(
+        InputError,
+        match=rf"bomb.yaml: line \d+, column \d+: \d+ nodes once aliases are expanded, more than the limit of {MAX_NODES}",
+    ):
+        parse_scenario(BOMB, "bomb.yaml")
+    assert time.perf_counter() - start < 0.5
+
+
+def test_recursive_alias_is_refused() -> None:
+    with pytest.raises(InputError, match="loop.yaml: line 1, column 4: an alias refers to a node that contains it"):
+        parse_document("a: &x [1, *x]", "loop.yaml")
+
+
+def test_deep_nesting_is_refused_with_the_limit() -> None:
+    for depth in (MAX_DEPTH + 1, 2000, 100_000):
+        with pytest.raises(
+            InputError,
+            match=f"deep.yaml: line 1, column \\d+: .*nesting.*limit of {MAX_DEPTH}|deep.yaml: line 1, column \\d+: .*exceeded maximum nesting depth",
+        ):
+            parse_document("[" * depth + "]" * depth, "deep.yaml")
+    assert parse_document("[" * (MAX_DEPTH - 1) + "]" * (MAX_DEPTH - 1), "ok.yaml").data is not None
+
+
+def test_a_huge_value_is_never_written_out_in_a_message() -> None:
+    text = scenario_text(**{"name: corridor": "name: [" + ", ".join(["123456789"] * 100_000) + "]"})
+    with pytest.raises(InputError) as err:
+        parse_scenario(text, "big.yaml")
+    assert len(str(err.value)) < 300 and "name: Input should be a valid string" in str(err.value)
+
+
+@pytest.mark.parametrize("device", ["/dev/zero", "/dev/null"])
+def test_devices_are_refused_without_reading(device: str) -> None:
+    if not Path(device).exists():
+        pytest.skip(f"no {device}")
+    with pytest.raises(InputError, match=f"{device}: not a regular file"):
+        load_scenario(device)
+
+
+def test_a_fifo_is_refused_without_waiting_for_a_writer(tmp_path: Path) -> None:
+    fifo = tmp_path / "pipe.yaml"
+    os.mkfifo(fifo)
+    result: list[BaseException] = []
+    reader = threading.Thread(target=lambda: result.append(pytest.raises(InputError, read_document, fifo).value))
+    reader.start()
+    reader.join(5)
+    assert not reader.is_alive(), "reading a FIFO hangs"
+    assert "not a regular file" in str(result[0])
+
+
+def test_a_directory_and_an_oversized_file_are_refused(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="not a regular file"):
+        load_config(tmp_path)
+    big = tmp_path / "big.yaml"
+    big.write_bytes(b"#" * (MAX_FILE_BYTES + 1))
+    with pytest.raises(InputError, match=f"larger than the limit of {MAX_FILE_BYTES} bytes"):
+        load_scenario(big)
+
+
+@pytest.mark.parametrize("lines", ["20000.0", "1.0e+6", "20001"])
+def test_phantom_line_counts_are_limited_whatever_their_type(lines: str) -> None:
+    data = corridor_data()
+    region = data["world"]["sunlight"][0]
+    data["world"]["sunlight"] = [region, region, {**region, "lines": "LINES"}]
+    text = yaml.safe_dump(data).replace("LINES", lines).replace("'", "")
+    with pytest.raises(InputError, match=r"world\.sunlight: .* sunlight lines.*more than the limit of"):
+        parse_scenario(text, "many.yaml")
+
+
+def test_phantoms_over_all_poses_are_limited() -> None:
+    data = corridor_data()
+    data["world"]["sunlight"][0]["lines"] = MAX_SUNLIGHT_LINES // 2
+    data["robot"]["poses"] = [
+        [1 + i * 0.01, 1.0, 0] for i in range(MAX_PHANTOMS_PER_RUN // (MAX_SUNLIGHT_LINES // 2) + 1)
+    ]
+    with pytest.raises(InputError, match=f"phantom lines, more than the limit of {MAX_PHANTOMS_PER_RUN} per run"):
+        parse_scenario(yaml.safe_dump(data), "poses.yaml")
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "where", "what"),
+    [
+        ("version: 1", "version: true", "version", "valid integer"),
+        ("seed: 7", "seed: 7.0", "seed", "valid integer"),
+        ("name: corridor", "name: !!binary Y29ycmlkb3I=", "name", "valid string"),
+        ("name: corridor", "name: 12", "name", "valid string"),
+        ("radius: 0.12", "radius: true", "world.cylinders[0].radius", "valid number"),
+        ("[9.5, 1.2, 0]", '["9.5", 1.2, 0]', "robot.poses[0][0]", "valid number"),
+        ("[9.5, 1.2, 0]", "[9.5, 1.2, 720]", "robot.poses[0][2]", "less than or equal to 360"),
+        ("[9.5, 1.2, 0]", "[9.5, 2.0e+7, 0]", "robot.poses[0][1]", "less than or equal to 10000000"),
+        ("[9.5, 1.2, 0]", "[7.0, 0, 0]", "robot.poses[0]", "pose on wall 'south'"),
+    ],
+)
+def test_no_silent_coercion_and_no_pose_on_a_wall(old: str, new: str, where: str, what: str) -> None:
+    with pytest.raises(InputError) as err:
+        parse_scenario(scenario_text(**{old: new}), "c.yaml")
+    message = str(err.value)
+    assert message.startswith(f"c.yaml: {where}: ") and what in message, message
+    assert "(line " in message
+
+
+def test_merge_keys_work_in_scenarios_and_configs(tmp_path: Path) -> None:
+    text = scenario_text(
+        **{
+            "    - {id: east-sill, points: [[14, 0], [14, 0.3]], material: wall}": (
+                "    - &sill {id: east-sill, points: [[14, 0], [14, 0.3]], material: wall}\n"
+                "    - {<<: *sill, id: sill-copy, points: [[14, -1], [14, -0.7]]}"
+            )
+        }
+    )
+    walls = parse_scenario(text, "merge.yaml").world.walls
+    assert (walls[2].id, walls[2].material, walls[2].points[0]) == ("sill-copy", "wall", (14.0, -1.0))
+    config = PAPER.read_text().replace(
+        "  sonar:\n    beam_width_deg: 25.0", "  sonar: &sonar\n    beam_width_deg: 25.0"
+    )
+    config = config.replace("rcd_figure:\n", "rcd_figure:\n  <<: {range_tolerance: 0.5}\n")
+    (tmp_path / "c.yaml").write_text(config)
+    cfg = load_config(tmp_path / "c.yaml")
+    assert cfg.rcd_figure.range_tolerance == 0.01  # written keys override merged ones
+    with pytest.raises(InputError, match="duplicate key 'frame'"):
+        parse_document("frame: a\nframe: b", "d.yaml")
+
+
+def edited_config(tmp_path: Path, old: str, new: str) -> Path:
+    text = PAPER.read_text()
+    for before, after in zip(old.split(" && "), new.split(" && "), strict=True):
+        assert before in text
+        text = text.replace(before, after)
+    (tmp_path / "c.yaml").write_text(text)
+    return tmp_path / "c.yaml"
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "where", "what"),
+    [
+        (
+            "elements: [real, noise] && unknown: real|noise",
+            "elements: [real, dust] && unknown: real|dust",
+            "frames.existence.elements",
+            "missing 'noise'",
+        ),
+        ("jump_threshold: 1.0         #", "jump_threshold: .inf         #", "rcd.jump_threshold", "finite number"),
+        ("partly_inside: {real: 0.1", "partly: {real: 0.1", "sources.sonar_open_space", "partly"),
+        (
+            "categories: [outside, partly_inside, inside] && partly_inside: {real: 0.1",
+            "categories: [outside, partly, inside] && partly: {real: 0.1",
+            "sources.sonar_open_space.categories",
+            "no row for 'partly_inside'",
+        ),
+        ("feature: sonar_match", "feature: relation", "sources.sonar_match.feature", "only the feature 'sonar_match'"),
+        ("feature: length", "feature: relation", "sources.lsl_length.kind", "read it with a table"),
+        ("threshold: 0.5", "threshold: true", "noise.threshold", "valid number"),
+        ("snapshots: 15 ", "snapshots: 15.0 ", "sensors.lsl.snapshots", "valid integer"),
+        ("rule: dempster", "rule: !!binary ZGVtcHN0ZXI=", "rule", "valid string"),
+    ],
+)
+def test_config_check_makes_every_check_of_a_run(tmp_path: Path, old: str, new: str, where: str, what: str) -> None:
+    path = edited_config(tmp_path, old, new)
+    with pytest.raises(InputError) as err:
+        load_config(path)
+    message = str(err.value)
+    assert message.startswith(f"{path}: {where}") and what in message and "(line " in message, message
+
+
+def test_a_feature_no_sensor_computes_is_a_warning_for_check_and_an_error_for_run() -> None:
+    cfg = load_config(configs.path("examples/infrared.yaml"))
+    (warning,) = cfg.warnings
+    assert "sources.infrared.feature: reads feature 'ir_return', which no built-in sensor computes" in warning
+    assert warning.startswith(str(configs.path("examples/infrared.yaml")))
+    with pytest.raises(InputError, match="sources.infrared.feature"):
+        check_simulated_run(cfg)
+    assert load_config().warnings == ()
+
+
+def test_utm_sized_coordinates_give_the_same_observations() -> None:
+    data = corridor_data()
+    shifted = copy.deepcopy(data)
+    dx, dy = 1e6, -1e6
+
+    def move(points: list) -> list:
+        return [[p[0] + dx, p[1] + dy, *p[2:]] for p in points]
+
+    for wall in shifted["world"]["walls"]:
+        wall["points"] = move(wall["points"])
+    for cylinder in shifted["world"].get("cylinders", []):
+        cylinder["center"] = move([cylinder["center"]])[0]
+    for region in shifted["world"]["sunlight"]:
+        region["polygon"] = move(region["polygon"])
+    shifted["robot"]["poses"] = move(shifted["robot"]["poses"])
+    worlds = [World(parse_scenario(yaml.safe_dump(d), "c.yaml")) for d in (data, shifted)]
+    np.testing.assert_allclose(worlds[1].sunlight_centroids - [dx, dy], worlds[0].sunlight_centroids, atol=1e-6)
+    original, moved = (observe_lsl_all(world, LslParams()) for world in worlds)
+    assert len(moved) == len(original)
+    assert (moved.truth == "noise").sum() == (original.truth == "noise").sum() > 0
