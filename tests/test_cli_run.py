@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from evidential import RULES
+from evmap import configs
 from evmap.maps.app.cli import main
 from evmap.maps.app.figures import FIGURE_FILES
 
@@ -101,6 +102,16 @@ def test_a_bad_config_exits_2_naming_the_file(capsys, tmp_path):
     assert stderr.startswith("evmap: error: ") and BAD_CONFIG in stderr
     assert "Traceback" not in stderr
     assert not out.exists()
+
+
+def test_a_config_no_sensor_can_feed_is_refused_before_the_run_naming_the_key(capsys, tmp_path):
+    out = tmp_path / "out"
+    infrared = str(configs.path("examples/infrared.yaml"))
+    code, stdout, stderr = evmap(capsys, "run", "--config", infrared, "--out", str(out))
+    assert code == 2 and stdout == "" and not out.exists()
+    assert stderr.startswith(f"evmap: error: {infrared}: sources.infrared.feature: reads feature 'ir_return'")
+    code, stdout, _ = evmap(capsys, "config", "check", infrared)
+    assert code == 0 and "warning: " in stdout and "'ir_return'" in stdout
 
 
 def test_the_rule_option_reaches_the_report_and_the_map(capsys, tmp_path):

@@ -39,7 +39,7 @@ from evidential import Frame, TotalConflictError, combine_batch
 from evmap.maps.app.artefacts import prepare_out, write_artefacts
 from evmap.maps.app.compare import add_compare_parser
 from evmap.maps.app.run import run_scenario
-from evmap.sources.config import PARAMETER_SECTIONS, Config, SensorsParams, load_config
+from evmap.sources.config import PARAMETER_SECTIONS, Config, SensorsParams, check_simulated_run, load_config
 from evmap.sources.sim.scenario import default_scenario, load_scenario
 
 __all__ = ["build_parser", "config_check", "config_explain", "main", "run_command"]
@@ -111,6 +111,7 @@ def build_parser() -> argparse.ArgumentParser:
 def run_command(args: argparse.Namespace) -> int:
     """``evmap run``: the paper's experiment on a scenario, its artefacts written all or nothing."""
     cfg = load_config(args.config)
+    check_simulated_run(cfg)
     if args.rule:
         cfg = cfg.with_rule(args.rule)
     scenario = load_scenario(args.scenario) if args.scenario else default_scenario()
@@ -140,7 +141,7 @@ def run_command(args: argparse.Namespace) -> int:
 def config_check(args: argparse.Namespace) -> int:
     """``evmap config check [FILE]``: validate and print the config as understood."""
     cfg = load_config(args.file)
-    out = [f"{cfg.name}: valid", f"rule: {cfg.rule}", ""]
+    out = [f"{cfg.name}: valid", *[f"warning: {w}" for w in cfg.warnings], f"rule: {cfg.rule}", ""]
     for name, frame in cfg.frames.items():
         role = " (the map's frame)" if name == cfg.frame_name else ""
         out.append(f"frame {name}{role}: {', '.join(frame.elements)}")
