@@ -49,12 +49,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
-from pydantic import BaseModel, ConfigDict, Field
-
 from evmap.sources.logs.scan import LaserScan
 from evmap.sources.params import LslParams
 from evmap.sources.sim.lsl import LslSegments, fit_polylines
+from numpy.typing import NDArray
+from pydantic import BaseModel, ConfigDict, Field
 
 __all__ = ["UNKNOWN_TRUTH", "LaserParams", "LaserSegments", "breakpoints", "laser_segments"]
 
@@ -180,11 +179,11 @@ def _merge(points: NDArray[np.float64], pieces: NDArray[np.intp], tolerance: flo
     """Neighbouring pieces (sharing a point or adjacent, no gap row between) merged while one line still fits."""
     merged: list[list[int]] = []
     for a, b in pieces.tolist():
-        if merged and a - merged[-1][1] <= 1 and not np.isnan(points[merged[-1][1] : a + 1]).any():
-            if _line(points[merged[-1][0] : b + 1])[2] <= tolerance:
-                merged[-1][1] = b
-                continue
-        merged.append([a, b])
+        joined = merged and a - merged[-1][1] <= 1 and not np.isnan(points[merged[-1][1] : a + 1]).any()
+        if joined and _line(points[merged[-1][0] : b + 1])[2] <= tolerance:
+            merged[-1][1] = b
+        else:
+            merged.append([a, b])
     return np.array(merged, dtype=np.intp).reshape(-1, 2)
 
 

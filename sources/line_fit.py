@@ -30,9 +30,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
-
 from evmap.sources.logs.scan import LaserScan
+from numpy.typing import NDArray
 
 __all__ = ["ScanFit", "log_fit", "scan_fit"]
 
@@ -82,4 +81,8 @@ def scan_fit(scan: LaserScan, p: NDArray[np.float64], q: NDArray[np.float64]) ->
 def log_fit(fits: Iterable[ScanFit]) -> tuple[float, float]:
     """Mean coverage and median error of a log's scans (scans without rays or hits left out of each)."""
     coverage, error = np.array([(f.coverage, f.error) for f in fits], dtype=float).reshape(-1, 2).T
-    return float(np.nanmean(coverage)), float(np.nanmedian(error))
+    coverage, error = coverage[~np.isnan(coverage)], error[~np.isnan(error)]
+    return (
+        float(coverage.mean()) if len(coverage) else float("nan"),
+        float(np.median(error)) if len(error) else float("nan"),
+    )

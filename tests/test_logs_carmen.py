@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from evmap.sources.logs.carmen import CarmenOptions, read_carmen
 from evmap.sources.logs.scan import LogError
 
@@ -31,7 +30,8 @@ def test_intel_excerpt_layout_and_no_returns() -> None:
     assert len(scan) == 180 and scan.max_range == 80.0
     np.testing.assert_allclose(np.degrees(scan.angles[[0, -1]]), [-90, 90])
     assert np.all(np.isnan(scan.ranges) | (scan.ranges < 80))
-    raw = [line.split() for line in gzip.open(INTEL, "rt") if line.startswith("FLASER")][0]
+    with gzip.open(INTEL, "rt") as f:
+        raw = next(line.split() for line in f if line.startswith("FLASER"))
     assert (np.isnan(scan.ranges) == (np.array(raw[2:182], dtype=float) >= 80)).all()
     np.testing.assert_allclose(scan.pose, np.array(raw[182:185], dtype=float))
     assert records[0].sonar is None

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from evmap.sources.logs.g2o import read_g2o
 from evmap.sources.logs.scan import LogError
 

@@ -48,8 +48,6 @@ from pathlib import Path
 from typing import IO
 
 import numpy as np
-from numpy.typing import NDArray
-
 from evmap.sources.logs.scan import (
     UNITS,
     LaserGeometry,
@@ -62,6 +60,7 @@ from evmap.sources.logs.scan import (
     check_pose,
     compose,
 )
+from numpy.typing import NDArray
 
 __all__ = [
     "DEFAULT_FOV_DEG",
@@ -163,15 +162,19 @@ def robotlaser1(words: list[str], where: str, unit: Unit = "m") -> tuple[LaserSc
     m = _count(words[9 + n], where, "ROBOTLASER1 remission count")
     expected = 9 + n + 1 + m + 6 + 5 + 3
     if len(words) != expected:
-        raise LogError(f"{where}: ROBOTLASER1 with {n} beams and {m} remissions needs {expected} fields, "
-                       f"got {len(words)}")
+        raise LogError(
+            f"{where}: ROBOTLASER1 with {n} beams and {m} remissions needs {expected} fields, got {len(words)}"
+        )
     start, fov, step, max_range = _numbers(words[2:6], where, "ROBOTLASER1 layout")
     if not (n >= 1 and step > 0 and fov > 0 and max_range > 0):
-        raise LogError(f"{where}: ROBOTLASER1 layout start {start:g}, fov {fov:g}, resolution {step:g}, "
-                       f"max range {max_range:g} is not a laser's")
+        raise LogError(
+            f"{where}: ROBOTLASER1 layout start {start:g}, fov {fov:g}, resolution {step:g}, "
+            f"max range {max_range:g} is not a laser's"
+        )
     if n > 1 and abs((n - 1) * step - fov) > step * 1.01 + 1e-6:
-        raise LogError(f"{where}: ROBOTLASER1 states {n} beams {step:g} rad apart, which do not fit its field of view "
-                       f"{fov:g} rad")
+        raise LogError(
+            f"{where}: ROBOTLASER1 states {n} beams {step:g} rad apart, which do not fit its field of view {fov:g} rad"
+        )
     try:
         geometry = LaserGeometry(n, float(start), float(step), float(max_range) * UNITS[unit], unit)
     except ValueError as exc:
@@ -243,8 +246,9 @@ def _records(path: Path, options: CarmenOptions) -> Iterator[LogRecord]:
                 index += 1
             elif name == "ODOM":
                 if len(words) != 10:
-                    raise LogError(f"{where}: ODOM needs 10 fields (x y theta tv rv accel and 3 stamps), "
-                                   f"got {len(words)}")
+                    raise LogError(
+                        f"{where}: ODOM needs 10 fields (x y theta tv rv accel and 3 stamps), got {len(words)}"
+                    )
                 check_pose(_numbers(words[1:4], where, "ODOM pose"), where, "odometry pose")
             elif name == "SONAR":
                 state.sonar = _sonar(words, where, options)
@@ -255,8 +259,9 @@ def _flaser(words: list[str], where: str, state: _State, index: int) -> LogRecor
         raise LogError(f"{where}: FLASER needs a beam count")
     n = _count(words[1], where, "FLASER beam count")
     if n == 0 or len(words) != n + 11:
-        raise LogError(f"{where}: FLASER with {n} beams needs {n + 11} fields (readings, two poses, 3 stamps), "
-                       f"got {len(words)}")
+        raise LogError(
+            f"{where}: FLASER with {n} beams needs {n + 11} fields (readings, two poses, 3 stamps), got {len(words)}"
+        )
     geometry = state.flaser_geometry(n, where)
     ranges = geometry.ranges(words[2 : 2 + n], where)
     laser = check_pose(_numbers(words[2 + n : 5 + n], where, "FLASER pose"), where, "laser pose")
@@ -272,8 +277,10 @@ def _sonar(words: list[str], where: str, options: CarmenOptions) -> RangeReading
     cone = float(_numbers(words[1:2], where, "SONAR cone angle")[0])
     k = _count(words[2], where, "SONAR sensor count")
     if len(words) != 3 + 4 * k + 3:
-        raise LogError(f"{where}: SONAR with {k} sensors needs {3 + 4 * k + 3} fields (readings, x y theta offsets, "
-                       f"3 stamps), got {len(words)}")
+        raise LogError(
+            f"{where}: SONAR with {k} sensors needs {3 + 4 * k + 3} fields (readings, x y theta offsets, "
+            f"3 stamps), got {len(words)}"
+        )
     raw = _numbers(words[3 : 3 + k], where, "SONAR readings") * UNITS[options.unit]
     offsets = _numbers(words[3 + k : 3 + 4 * k], where, "SONAR offsets").reshape(k, 3)
     if not np.isfinite(offsets).all():
@@ -281,8 +288,10 @@ def _sonar(words: list[str], where: str, options: CarmenOptions) -> RangeReading
     if (raw < 0).any():
         raise LogError(f"{where}: SONAR reading {int(np.argmax(raw < 0))} is negative")
     if (raw > 2 * options.sonar_max_range).any():
-        raise LogError(f"{where}: SONAR reading {int(np.argmax(raw > 2 * options.sonar_max_range))} is over twice "
-                       f"the sonar maximum range ({options.sonar_max_range:g} m): is the unit {options.unit!r} right?")
+        raise LogError(
+            f"{where}: SONAR reading {int(np.argmax(raw > 2 * options.sonar_max_range))} is over twice "
+            f"the sonar maximum range ({options.sonar_max_range:g} m): is the unit {options.unit!r} right?"
+        )
     width = np.radians(options.sonar_beam_width_deg) if options.sonar_beam_width_deg is not None else cone
     if not (np.isfinite(width) and 0 < width < np.pi):
         raise LogError(f"{where}: SONAR cone angle {cone:g} rad is not a beam width")

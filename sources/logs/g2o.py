@@ -28,7 +28,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-
 from evmap.sources.logs.carmen import open_text, robotlaser1
 from evmap.sources.logs.scan import UNITS, Log, LogError, LogRecord, Unit, check_pose, compose, relative
 

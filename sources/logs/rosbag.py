@@ -36,10 +36,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
-from rosbags.highlevel import AnyReader
-from rosbags.typesys import Stores, get_typestore
-
 from evmap.sources.logs.scan import (
     UNITS,
     LaserGeometry,
@@ -52,6 +48,9 @@ from evmap.sources.logs.scan import (
     check_pose,
     compose,
 )
+from numpy.typing import NDArray
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import Stores, get_typestore
 
 __all__ = ["LASER_SCAN", "ODOMETRY", "RANGE", "TF", "RosbagOptions", "read_rosbag"]
 
@@ -199,9 +198,10 @@ def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
                     laser = placed
                     robot = tf.pose(base, options.world_frame)
                     robot = laser if robot is None else robot
-                sonar = _ring(latest, tf, base, scan.stamp)
-                yield LogRecord(index, LaserScan(scan.stamp, laser, scan.angles, scan.ranges, scan.max_range),
-                                robot, sonar)
+                sonar = _ring(latest, tf, base)
+                yield LogRecord(
+                    index, LaserScan(scan.stamp, laser, scan.angles, scan.ranges, scan.max_range), robot, sonar
+                )
                 index += 1
         if scans and not index:
             source = f"odometry on {odom_topic}" if odom_topic else f"tf to {options.world_frame!r}"
@@ -210,15 +210,16 @@ def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
 
 def _scan(msg: Any, where: str, unit: Unit) -> LaserScan:
     n = len(msg.ranges)
-    start, end, step, max_range = (float(v) for v in (msg.angle_min, msg.angle_max, msg.angle_increment,
-                                                      msg.range_max))
+    start, end, step, max_range = (float(v) for v in (msg.angle_min, msg.angle_max, msg.angle_increment, msg.range_max))
     if n == 0:
         raise LogError(f"{where}: LaserScan has no ranges")
     if not all(np.isfinite([start, end, step])) or (n > 1 and step == 0):
         raise LogError(f"{where}: LaserScan angles min {start:g}, max {end:g}, increment {step:g} are no layout")
     if n > 1 and abs(start + (n - 1) * step - end) > abs(step) * 1.01 + 1e-6:
-        raise LogError(f"{where}: LaserScan of {n} beams from {start:g} rad by {step:g} rad ends at "
-                       f"{start + (n - 1) * step:g} rad, not at angle_max {end:g} rad")
+        raise LogError(
+            f"{where}: LaserScan of {n} beams from {start:g} rad by {step:g} rad ends at "
+            f"{start + (n - 1) * step:g} rad, not at angle_max {end:g} rad"
+        )
     if not (np.isfinite(max_range) and max_range > 0):
         raise LogError(f"{where}: LaserScan range_max {max_range:g} is not a positive number")
     raw = np.asarray(msg.ranges, dtype=float)
@@ -242,20 +243,21 @@ def _range(msg: Any, where: str, unit: Unit) -> tuple[float, str, float, float, 
     if not (np.isfinite(high) and high > 0):
         raise LogError(f"{where}: Range max_range {high:g} is not a positive number")
     if np.isfinite(value) and (value < 0 or value > 2 * high):
-        raise LogError(f"{where}: Range reading {value:g} {unit} is negative or over twice max_range {high:g}: "
-                       f"is the unit {unit!r} right?")
+        raise LogError(
+            f"{where}: Range reading {value:g} {unit} is negative or over twice max_range {high:g}: "
+            f"is the unit {unit!r} right?"
+        )
     echo = value * scale if np.isfinite(value) and low <= value < high else np.nan
     return _stamp(msg), _frame(msg.header.frame_id), echo, high * scale, fov
 
 
-def _ring(latest: dict[str, tuple[float, str, float, float, float]], tf: _Tf, base: str,
-          stamp: float) -> RangeReadings | None:
+def _ring(latest: dict[str, tuple[float, str, float, float, float]], tf: _Tf, base: str) -> RangeReadings | None:
     """The latest reading of every range topic, in topic order, as one ring on the robot."""
     if not latest:
         return None
     rows = [latest[t] for t in sorted(latest)]
-    offsets = np.array([tf.pose(frame, base) if tf.pose(frame, base) is not None else np.zeros(3)
-                        for _, frame, _, _, _ in rows])
+    placed = [tf.pose(frame, base) for _, frame, _, _, _ in rows]
+    offsets = np.array([np.zeros(3) if pose is None else pose for pose in placed])
     return RangeReadings(
         stamp=max(r[0] for r in rows),
         offsets=offsets,
