@@ -15,14 +15,15 @@
    where the surfaces do not continue across it.
 3. Split (iterative end-point fit) and line fit of each cluster by
    :func:`evmap.sources.sim.lsl.fit_polylines`: a point further than
-   ``split_threshold + split_sigmas * sigma_r`` from its piece's chord splits it;
+   ``split_threshold + split_sigmas * sigma`` from its piece's chord splits it,
+   ``sigma = sigma_r + sigma_per_metre * range`` the point's range noise std;
    pieces of fewer than ``min_points`` points are dropped; each piece gets its
    total-least-squares line.
 4. Merge: two neighbouring pieces of a cluster whose union still fits one line
-   (every point within the split tolerance of the union's fitted line) become one.
-   Grow: each piece takes on the neighbouring points of its cluster that no piece
-   holds (the remnants of splits too short to keep) while they lie within the
-   split tolerance of its line.
+   (every point within ``split_threshold + split_sigmas * sigma_r`` of the union's
+   fitted line) become one. Grow: each piece takes on the neighbouring points of
+   its cluster that no piece holds (the remnants of splits too short to keep)
+   while they lie within that distance of its line.
 5. Ends: each line is cut by the rays of its piece's first and last points, so
    the segment spans, seen from the laser, exactly the beams it was fitted to.
 
@@ -76,8 +77,9 @@ class LaserParams(BaseModel):
         6.0, gt=0, lt=90, description="Borges & Aldon's breakpoint angle: flattest incidence still one surface"
     )
     min_points: int = Field(3, ge=2, le=1000, description="fewest points in a segment")
-    split_threshold: float = Field(0.03, gt=0, le=1, description="split distance from a piece's chord (m)")
-    split_sigmas: float = Field(0.0, ge=0, le=10, description="split distance grows by this many sigma_r")
+    sigma_per_metre: float = Field(0.005, ge=0, le=1, description="range noise std grows by this per metre of range")
+    split_threshold: float = Field(0.01, gt=0, le=1, description="split distance from a piece's chord (m)")
+    split_sigmas: float = Field(1.0, ge=0, le=10, description="split distance grows by this many range noise stds")
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,7 +148,7 @@ def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) ->
         min_points=params.min_points,
         break_distance=10.0,
     )
-    sigma = np.full(len(points), params.sigma_r)
+    sigma = params.sigma_r + params.sigma_per_metre * np.nan_to_num(np.hypot(*points.T))
     _, _, pieces = fit_polylines(points, sigma, fit_params)
     beam_of_row = np.full(len(points), -1)
     beam_of_row[order] = beams
@@ -165,14 +167,14 @@ def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) ->
     return LaserSegments(segments, beam_of_row[pieces].reshape(-1, 2), origin, local + origin, returned)
 
 
-def _line(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """Total least squares line of points: centre, unit direction, largest distance of a point from it."""
+def _line(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Total least squares line of points: centre, unit direction, distance of every point from it."""
     centre = points.mean(axis=0)
     d = points - centre
     sxx, syy, sxy = (d[:, 0] ** 2).sum(), (d[:, 1] ** 2).sum(), (d[:, 0] * d[:, 1]).sum()
     phi = 0.5 * np.arctan2(2 * sxy, sxx - syy)
     u = np.array([np.cos(phi), np.sin(phi)])
-    return centre, u, float(np.abs(d @ np.array([-u[1], u[0]])).max())
+    return centre, u, np.abs(d @ np.array([-u[1], u[0]]))
 
 
 def _merge(points: NDArray[np.float64], pieces: NDArray[np.intp], tolerance: float) -> NDArray[np.intp]:
@@ -180,7 +182,7 @@ def _merge(points: NDArray[np.float64], pieces: NDArray[np.intp], tolerance: flo
     merged: list[list[int]] = []
     for a, b in pieces.tolist():
         joined = merged and a - merged[-1][1] <= 1 and not np.isnan(points[merged[-1][1] : a + 1]).any()
-        if joined and _line(points[merged[-1][0] : b + 1])[2] <= tolerance:
+        if joined and _line(points[merged[-1][0] : b + 1])[2].max() <= tolerance:
             merged[-1][1] = b
         else:
             merged.append([a, b])

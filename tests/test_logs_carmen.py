@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from evmap.sources.logs import open_log
 from evmap.sources.logs.carmen import CarmenOptions, read_carmen
 from evmap.sources.logs.scan import LogError
 
@@ -123,3 +124,10 @@ def test_bad_param_is_refused(tmp_path: Path) -> None:
     path = write(tmp_path, "PARAM robot_front_laser_max far", FLASER)
     with pytest.raises(LogError, match="x.log:2: PARAM robot_front_laser_max 'far' is not a positive number"):
         list(read_carmen(path))
+
+
+def test_open_log_picks_the_reader(tmp_path: Path) -> None:
+    assert len(list(open_log(INTEL))) == 30
+    assert len(list(open_log(DATA / "killian-excerpt.g2o"))) == 3
+    with pytest.raises(LogError, match="no such log"):
+        open_log(tmp_path / "missing.log")

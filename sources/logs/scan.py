@@ -38,6 +38,7 @@ __all__ = [
     "LogError",
     "LogRecord",
     "RangeReadings",
+    "Unit",
     "check_pose",
     "compose",
     "relative",
@@ -47,6 +48,7 @@ UNITS: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 """Range units a reader may declare, and their size in metres."""
 
 Unit = Literal["m", "cm", "mm"]
+"""A range unit's name (a key of :data:`UNITS`)."""
 
 MIN_PLAUSIBLE_MEDIAN = 0.05
 """A scan of ten or more returns whose median range is below this (m) was surely logged in a larger unit."""
