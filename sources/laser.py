@@ -146,7 +146,7 @@ def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) ->
         split_threshold=params.split_threshold,
         split_sigmas=params.split_sigmas,
         min_points=params.min_points,
-        break_distance=10.0,
+        break_distance=10.0,  # its largest: the clusters are already broken by the breakpoint detector
     )
     sigma = params.sigma_r + params.sigma_per_metre * np.nan_to_num(np.hypot(*points.T))
     _, _, pieces = fit_polylines(points, sigma, fit_params)
