@@ -1,0 +1,224 @@
+"""A planar laser as a contour sensor: line segments and rays from one scan, in the pipeline's LSL form.
+
+:func:`laser_segments` turns a :class:`~evmap.sources.logs.scan.LaserScan` into
+:class:`LaserSegments`:
+
+1. Points: ``pose + range * (cos, sin)`` of every beam that returned (no-return
+   and maximum-range readings are NaN in the scan and dropped).
+2. Clusters by the adaptive breakpoint detector of Borges & Aldon (2004, "Line
+   extraction in 2D range images for mobile robotics", J. Intell. Robot. Syst.):
+   two consecutive returned points ``n - 1``, ``n``, ``dphi`` apart in angle, are
+   broken apart when their distance exceeds
+   ``D_max = r_{n-1} * sin(dphi) / sin(lambda - dphi) + 3 * sigma_r``,
+   the gap a surface seen at the grazing angle ``lambda`` would leave, plus noise.
+   Beams without return between them widen ``dphi``, so a gap in the scan breaks
+   where the surfaces do not continue across it.
+3. Split (iterative end-point fit) and line fit of each cluster by
+   :func:`evmap.sources.polyline.fit_polylines`: a point further than
+   ``split_threshold + split_sigmas * sigma`` from its piece's chord splits it,
+   ``sigma = sigma_r + sigma_per_metre * range`` the point's range noise std;
+   pieces of fewer than ``min_points`` points are dropped; each piece gets its
+   total-least-squares line.
+4. Merge: two neighbouring pieces of a cluster whose union still fits one line
+   (every point within ``split_threshold + split_sigmas * sigma_r`` of the union's
+   fitted line) become one. Grow: each piece takes on the neighbouring points of
+   its cluster that no piece holds (the remnants of splits too short to keep)
+   while they lie within that distance of its line.
+5. Ends: each line is cut by the rays of its piece's first and last points, so
+   the segment spans, seen from the laser, exactly the beams it was fitted to.
+
+The segments come in the pipeline's :class:`~evmap.sources.readings.LslSegments`
+form (``truth`` is :data:`UNKNOWN_TRUTH`, ``snapshot`` 0, ``source`` ``""``); the
+rays (origin and one end per beam, the returned ones flagged) come along so that
+the free space along them can be computed.
+
+Examples
+--------
+>>> from evmap.sources.logs.scan import LaserScan
+>>> angles = np.radians(np.arange(-45.0, 46.0))
+>>> wall = 2.0 / np.cos(angles)                        # a wall 2 m ahead
+>>> scan = LaserScan(0.0, np.zeros(3), angles, wall, 80.0)
+>>> segs = laser_segments(scan, LaserParams(), pose_index=4)
+>>> segs.segments.p.round(3).tolist(), segs.segments.q.round(3).tolist(), segs.segments.pose.tolist()
+([[2.0, -2.0]], [[2.0, 2.0]], [4])
+>>> segs.pieces.tolist(), int(segs.returned.sum())
+([[0, 90]], 91)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import BaseModel, ConfigDict, Field
+
+from evmap.sources.logs.scan import LaserScan
+from evmap.sources.params import LslParams
+from evmap.sources.polyline import fit_polylines
+from evmap.sources.readings import LslSegments
+
+__all__ = ["UNKNOWN_TRUTH", "LaserParams", "LaserSegments", "breakpoints", "laser_segments"]
+
+UNKNOWN_TRUTH = ""
+"""``truth`` of a segment from real data: the segment store's "unknown" (fits the ``<U5`` dtype of
+:class:`~evmap.sources.readings.LslSegments`; ``"unknown"`` would need ``<U7`` and a new value in
+``docs/SCENARIO.md``'s ``segments.json``)."""
+
+
+class LaserParams(BaseModel):
+    """The laser's noise model and line-extraction parameters (metres and degrees at this edge).
+
+    The defaults are tuned on the Intel and Freiburg 079 logs (``benchmarks/bench_logs.py``), the same for both.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    sigma_r: float = Field(0.01, ge=0, le=1, description="range noise std (m); SICK LMS 2xx: about 1 cm")
+    lambda_deg: float = Field(
+        6.0, gt=0, lt=90, description="Borges & Aldon's breakpoint angle: flattest incidence still one surface"
+    )
+    min_points: int = Field(3, ge=2, le=1000, description="fewest points in a segment")
+    sigma_per_metre: float = Field(0.005, ge=0, le=1, description="range noise std grows by this per metre of range")
+    split_threshold: float = Field(0.01, gt=0, le=1, description="split distance from a piece's chord (m)")
+    split_sigmas: float = Field(1.0, ge=0, le=10, description="split distance grows by this many range noise stds")
+
+
+@dataclass(frozen=True, eq=False)
+class LaserSegments:
+    """The segments and rays of one laser scan.
+
+    Attributes
+    ----------
+    segments : the line segments, in the pipeline's LSL form (world frame).
+    pieces : (N, 2) index of the first and last beam of each segment's points.
+    origin : (2,) the laser's position (world).
+    ends : (R, 2) end of every beam: its point if it returned, else at the maximum range.
+    returned : (R,) whether each beam returned.
+    """
+
+    segments: LslSegments
+    pieces: NDArray[np.intp]
+    origin: NDArray[np.float64]
+    ends: NDArray[np.float64]
+    returned: NDArray[np.bool_]
+
+    def __len__(self) -> int:
+        return len(self.segments)
+
+
+def breakpoints(scan: LaserScan, params: LaserParams) -> NDArray[np.intp]:
+    """Beam indices of the returned beams that start a new cluster (the first returned beam included).
+
+    >>> from evmap.sources.logs.scan import LaserScan
+    >>> scan = LaserScan(0.0, np.zeros(3), np.radians([0.0, 1, 2, 3, 4]), np.array([2, 2, 4, np.nan, 4.0]), 80.0)
+    >>> breakpoints(scan, LaserParams()).tolist()
+    [0, 2]
+    """
+    beams = np.flatnonzero(~np.isnan(scan.ranges))
+    if len(beams) == 0:
+        return beams
+    r, phi = scan.ranges[beams], scan.angles[beams]
+    x, y = r * np.cos(phi), r * np.sin(phi)
+    gap = np.hypot(np.diff(x), np.diff(y))
+    dphi = np.diff(phi)
+    lam = np.radians(params.lambda_deg)
+    with np.errstate(divide="ignore"):
+        room = np.where(dphi < lam, np.sin(lam - dphi), 0.0)
+        d_max = np.where(room > 0, r[:-1] * np.sin(dphi) / room, np.inf) + 3 * params.sigma_r
+    return np.concatenate([beams[:1], beams[1:][gap > d_max]])
+
+
+def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) -> LaserSegments:
+    """Line segments and rays of one scan (see the module doc); ``pose_index`` fills the segments' ``pose``."""
+    returned = ~np.isnan(scan.ranges)
+    b = scan.bearings
+    direction = np.column_stack([np.cos(b), np.sin(b)])
+    origin = scan.pose[:2].copy()
+    local = np.where(returned, scan.ranges, scan.max_range)[:, None] * direction
+    starts = breakpoints(scan, params)
+    beams = np.flatnonzero(returned)
+    # returned points in scan order, a NaN row before every cluster but the first: no piece spans two clusters
+    cluster_start = np.isin(beams, starts)
+    cluster_start[:1] = False
+    order = np.arange(len(beams)) + np.cumsum(cluster_start)
+    points = np.full((len(beams) + int(cluster_start.sum()), 2), np.nan)
+    points[order] = local[beams]
+    fit_params = LslParams(
+        split_threshold=params.split_threshold,
+        split_sigmas=params.split_sigmas,
+        min_points=params.min_points,
+        break_distance=10.0,  # its largest: the clusters are already broken by the breakpoint detector
+    )
+    sigma = params.sigma_r + params.sigma_per_metre * np.nan_to_num(np.hypot(*points.T))
+    _, _, pieces = fit_polylines(points, sigma, fit_params)
+    beam_of_row = np.full(len(points), -1)
+    beam_of_row[order] = beams
+    tolerance = params.split_threshold + params.split_sigmas * params.sigma_r
+    pieces = _grow(points, _merge(points, pieces, tolerance), tolerance)
+    p, q = _cut_by_end_rays(points, pieces)
+    n = len(pieces)
+    segments = LslSegments(
+        p=p + origin,
+        q=q + origin,
+        truth=np.full(n, UNKNOWN_TRUTH, dtype="<U5"),
+        snapshot=np.zeros(n, dtype=np.intp),
+        source=np.full(n, "", dtype="<U1"),
+        pose=np.full(n, pose_index, dtype=np.intp),
+    )
+    return LaserSegments(segments, beam_of_row[pieces].reshape(-1, 2), origin, local + origin, returned)
+
+
+def _line(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Total least squares line of points: centre, unit direction, distance of every point from it."""
+    centre = points.mean(axis=0)
+    d = points - centre
+    sxx, syy, sxy = (d[:, 0] ** 2).sum(), (d[:, 1] ** 2).sum(), (d[:, 0] * d[:, 1]).sum()
+    phi = 0.5 * np.arctan2(2 * sxy, sxx - syy)
+    u = np.array([np.cos(phi), np.sin(phi)])
+    return centre, u, np.abs(d @ np.array([-u[1], u[0]]))
+
+
+def _merge(points: NDArray[np.float64], pieces: NDArray[np.intp], tolerance: float) -> NDArray[np.intp]:
+    """Neighbouring pieces (sharing a point or adjacent, no gap row between) merged while one line still fits."""
+    merged: list[list[int]] = []
+    for a, b in pieces.tolist():
+        joined = merged and a - merged[-1][1] <= 1 and not np.isnan(points[merged[-1][1] : a + 1]).any()
+        if joined and _line(points[merged[-1][0] : b + 1])[2].max() <= tolerance:
+            merged[-1][1] = b
+        else:
+            merged.append([a, b])
+    return np.array(merged, dtype=np.intp).reshape(-1, 2)
+
+
+def _grow(points: NDArray[np.float64], pieces: NDArray[np.intp], tolerance: float) -> NDArray[np.intp]:
+    """Each piece extended over the neighbouring points of its cluster that no piece holds and its line fits."""
+    grown = pieces.copy()
+    for k, (a, b) in enumerate(pieces.tolist()):
+        centre, u, _ = _line(points[a : b + 1])
+        normal = np.array([-u[1], u[0]])
+        low = grown[k - 1, 1] + 1 if k else 0
+        high = pieces[k + 1, 0] - 1 if k + 1 < len(pieces) else len(points) - 1
+        while a > low and abs((points[a - 1] - centre) @ normal) <= tolerance:
+            a -= 1
+        while b < high and abs((points[b + 1] - centre) @ normal) <= tolerance:
+            b += 1
+        grown[k] = a, b
+    return grown
+
+
+def _cut_by_end_rays(
+    points: NDArray[np.float64], pieces: NDArray[np.intp]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Each piece's fitted line cut by the rays (from the origin) of its first and last points.
+
+    Where a ray nearly runs along the line, the point's foot on the line is used instead.
+    """
+    p, q = np.zeros((len(pieces), 2)), np.zeros((len(pieces), 2))
+    for k, (a, b) in enumerate(pieces.tolist()):
+        centre, u, _ = _line(points[a : b + 1])
+        for out, end in ((p, points[a]), (q, points[b])):
+            cross = end[0] * u[1] - end[1] * u[0]  # ray direction (end) x line direction
+            t = (centre[0] * u[1] - centre[1] * u[0]) / cross if abs(cross) > 1e-3 * np.hypot(*end) else np.nan
+            out[k] = end * t if np.isfinite(t) and t > 0 else centre + ((end - centre) @ u) * u
+    return p, q

@@ -1,0 +1,92 @@
+"""The laser as a contour sensor: breakpoints, segments, rays, on synthetic scans and the log excerpts."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from evmap.sources.laser import UNKNOWN_TRUTH, LaserParams, breakpoints, laser_segments
+from evmap.sources.line_fit import scan_fit
+from evmap.sources.logs.carmen import read_carmen
+from evmap.sources.logs.scan import LaserScan
+from evmap.sources.readings import concat_segments
+
+DATA = Path(__file__).parent / "data" / "logs"
+
+
+def room_scan(noise: float = 0.0, seed: int = 0) -> LaserScan:
+    """A corner 2 m ahead and 1.5 m to the left, seen from (1, 1) heading +x, 1 deg beams over 180 deg."""
+    angles = np.radians(np.arange(-90.0, 90.5, 1.0))
+    with np.errstate(divide="ignore"):
+        front = np.where(np.cos(angles) > 1e-9, 2.0 / np.cos(angles), np.inf)
+        left = np.where(np.sin(angles) > 1e-9, 1.5 / np.sin(angles), np.inf)
+    ranges = np.minimum(front, left)
+    ranges = np.where(ranges < 80, ranges, np.nan)
+    ranges = ranges + noise * np.random.default_rng(seed).standard_normal(len(ranges))
+    return LaserScan(0.0, np.array([1.0, 1.0, 0.0]), angles, ranges, 80.0)
+
+
+def test_corner_gives_two_walls_meeting_at_the_corner() -> None:
+    segs = laser_segments(room_scan(), LaserParams(), pose_index=3)
+    assert len(segs) == 2
+    near_corner = np.hypot(*(np.concatenate([segs.segments.p, segs.segments.q]) - [3.0, 2.5]).T)
+    assert (near_corner < 0.05).sum() == 2  # the corner lies between two beams 4.4 cm apart
+    assert segs.segments.truth.tolist() == [UNKNOWN_TRUTH] * 2 and segs.segments.pose.tolist() == [3, 3]
+    assert segs.segments.snapshot.tolist() == [0, 0] and segs.segments.source.tolist() == ["", ""]
+
+
+def test_rays_start_at_the_laser_and_end_at_the_points_or_max_range() -> None:
+    scan = room_scan()
+    scan.ranges[10] = np.nan
+    segs = laser_segments(scan, LaserParams())
+    np.testing.assert_allclose(segs.origin, [1.0, 1.0])
+    np.testing.assert_allclose(segs.ends[segs.returned], scan.points[~np.isnan(scan.ranges)])
+    assert not segs.returned[10]
+    assert np.hypot(*(segs.ends[10] - segs.origin)) == pytest.approx(80.0)
+
+
+def test_breakpoint_separates_an_object_in_front_of_a_wall() -> None:
+    scan = room_scan()
+    scan.ranges[100:106] = 0.8
+    starts = breakpoints(scan, LaserParams()).tolist()
+    assert 100 in starts and 106 in starts
+
+
+def test_noisy_corner_is_covered_within_the_noise() -> None:
+    scan = room_scan(noise=0.01)
+    segs = laser_segments(scan, LaserParams())
+    fit = scan_fit(scan, segs.segments.p, segs.segments.q)
+    assert fit.coverage > 0.95 and fit.error < 0.015
+
+
+def test_no_return_scan_gives_no_segments() -> None:
+    scan = LaserScan(0.0, np.zeros(3), np.linspace(-1, 1, 5), np.full(5, np.nan), 80.0)
+    segs = laser_segments(scan, LaserParams())
+    assert len(segs) == 0 and segs.pieces.shape == (0, 2) and not segs.returned.any()
+
+
+def test_segments_concatenate_with_simulated_ones() -> None:
+    a = laser_segments(room_scan(), LaserParams(), 0).segments
+    b = laser_segments(room_scan(), LaserParams(), 1).segments
+    both = concat_segments([a, b])
+    assert len(both) == 4 and both.pose.tolist() == [0, 0, 1, 1]
+
+
+def test_params_are_checked() -> None:
+    with pytest.raises(ValidationError):
+        LaserParams(lambda_deg=95)
+    with pytest.raises(ValidationError):
+        LaserParams(colour="red")
+
+
+@pytest.mark.parametrize("name", ["intel-excerpt.log.gz", "freiburg-079-excerpt.log.gz"])
+def test_log_excerpts_are_mostly_covered(name: str) -> None:
+    fits = []
+    for record in read_carmen(DATA / name):
+        segs = laser_segments(record.scan, LaserParams(), record.index)
+        fits.append(scan_fit(record.scan, segs.segments.p, segs.segments.q))
+    assert np.mean([f.coverage for f in fits]) > 0.85
+    assert np.median([f.error for f in fits]) < 0.025

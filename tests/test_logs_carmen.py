@@ -1,0 +1,134 @@
+"""CARMEN log reader: the excerpts of the Intel and Freiburg 079 logs, and every refused line."""
+
+from __future__ import annotations
+
+import gzip
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from evmap.sources.logs import open_log
+from evmap.sources.logs.carmen import CarmenOptions, read_carmen
+from evmap.sources.logs.scan import LogError
+
+DATA = Path(__file__).parent / "data" / "logs"
+INTEL = DATA / "intel-excerpt.log.gz"
+FREIBURG = DATA / "freiburg-079-excerpt.log.gz"
+FLASER = "FLASER 3 1.0 2.0 3.0 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0"
+
+
+def write(tmp_path: Path, *lines: str, name: str = "x.log") -> Path:
+    path = tmp_path / name
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_intel_excerpt_layout_and_no_returns() -> None:
+    records = list(read_carmen(INTEL))
+    assert len(records) == 30
+    assert [r.index for r in records] == list(range(30))
+    scan = records[0].scan
+    assert len(scan) == 180 and scan.max_range == 80.0
+    np.testing.assert_allclose(np.degrees(scan.angles[[0, -1]]), [-90, 90])
+    assert np.all(np.isnan(scan.ranges) | (scan.ranges < 80))
+    with gzip.open(INTEL, "rt") as f:
+        raw = next(line.split() for line in f if line.startswith("FLASER"))
+    assert (np.isnan(scan.ranges) == (np.array(raw[2:182], dtype=float) >= 80)).all()
+    np.testing.assert_allclose(scan.pose, np.array(raw[182:185], dtype=float))
+    assert records[0].sonar is None
+
+
+def test_freiburg_excerpt_takes_layout_and_max_range_from_param() -> None:
+    records = list(read_carmen(FREIBURG))
+    assert len(records) == 20
+    scan = records[0].scan
+    assert len(scan) == 360 and scan.max_range == pytest.approx(80.99)
+    np.testing.assert_allclose(np.degrees(np.diff(scan.angles)), 0.5)
+    np.testing.assert_allclose(np.degrees(scan.angles[[0, -1]]), [-89.75, 89.75])
+    # robot_frontlaser_offset -0.04: the robot is 4 cm ahead of the laser
+    offset = records[0].robot_pose[:2] - scan.pose[:2]
+    np.testing.assert_allclose(offset, 0.04 * np.array([np.cos(scan.pose[2]), np.sin(scan.pose[2])]), atol=1e-12)
+
+
+def test_log_is_reiterable_and_options_override(tmp_path: Path) -> None:
+    log = read_carmen(write(tmp_path, FLASER), CarmenOptions(fov_deg=90, max_range=2.5))
+    first, second = list(log), list(log)
+    assert len(first) == len(second) == 1
+    np.testing.assert_allclose(np.degrees(first[0].scan.angles), [-45, 0, 45])
+    assert np.isnan(first[0].scan.ranges[2])
+
+
+def test_plain_and_gzip_read_alike(tmp_path: Path) -> None:
+    plain = write(tmp_path, FLASER)
+    zipped = tmp_path / "x.log.gz"
+    zipped.write_bytes(gzip.compress(plain.read_bytes()))
+    a, b = next(iter(read_carmen(plain))), next(iter(read_carmen(zipped)))
+    np.testing.assert_array_equal(a.scan.ranges, b.scan.ranges)
+
+
+def test_robotlaser1_and_sonar(tmp_path: Path) -> None:
+    path = write(
+        tmp_path,
+        "SONAR 0.4363 2 1.0 9.0 0.1 0.0 0.0 0.0 0.1 1.5708 3.0 host 3.0",
+        "ROBOTLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 50 3 0 1 2 0.1 1 2 0.1 0 0 0 0 0 5.0 host 5.0",
+    )
+    (record,) = read_carmen(path)
+    assert record.scan.ranges.tolist()[1:] == [pytest.approx(np.nan, nan_ok=True), 3.0]
+    assert record.sonar is not None
+    assert record.sonar.ranges[0] == 1.0 and np.isnan(record.sonar.ranges[1])
+    np.testing.assert_allclose(record.sonar.beam_width, 0.4363)
+    np.testing.assert_allclose(record.sonar.offsets[1], [0, 0.1, 1.5708])
+
+
+def test_millimetres_declared(tmp_path: Path) -> None:
+    line = "FLASER 3 1000 2000 3000 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0"
+    (record,) = read_carmen(write(tmp_path, line), CarmenOptions(unit="mm"))
+    assert record.scan.ranges.tolist() == [1.0, 2.0, 3.0]
+
+
+@pytest.mark.parametrize(
+    ("line", "message"),
+    [
+        ("FLASER 3 1.0 2.0 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0", "x.log:2: FLASER with 3 beams needs 14 fields"),
+        ("FLASER three 1.0 2.0 3.0 0 0 0 0 0 0 1 h 1", "x.log:2: FLASER beam count 'three' is not an integer"),
+        ("FLASER 3 1.0 abc 3.0 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0", "x.log:2: a range reading is not a number"),
+        ("FLASER 3 1.0 -2.0 3.0 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0", "x.log:2: reading 1 is negative"),
+        ("FLASER 3 1.0 2.0 3.0 nan 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0", "x.log:2: laser pose (nan, 0.0, 0.0)"),
+        ("FLASER 3 1.0 2.0 3.0 0.5 inf 0.0 0.5 0.0 0.0 10.0 host 10.0", "is not finite"),
+        ("FLASER 3 1000 2000 3000 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0", "smaller unit than the declared 'm'"),
+        ("ODOM 0 nan 0 0 0 0 1 host 1", "x.log:2: odometry pose"),
+        ("ODOM 0 0 0 0 0 1 host 1", "x.log:2: ODOM needs 10 fields"),
+        ("SONAR 0.4 2 1.0 2.0 0 0 0 3.0 host 3.0", "x.log:2: SONAR with 2 sensors needs 14 fields"),
+        ("SONAR 0.4 1 -1.0 0 0 0 3.0 host 3.0", "SONAR reading 0 is negative"),
+        ("ROBOTLASER1 0 -1.5708 3.1416 0.01 50 0.01 0 3 1 2 3 0 1 2 0.1 1 2 0.1 0 0 0 0 0 5.0 h 5.0", "do not fit"),
+        ("ROBOTLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 1 2 0.1 1 2 0.1 0 0 0 0 5.0 h 5.0", "needs 27"),
+        ("PARAM robot_front_laser_max", "x.log:2: PARAM needs a name and a value"),
+    ],
+)
+def test_malformed_lines_name_file_and_line(tmp_path: Path, line: str, message: str) -> None:
+    path = write(tmp_path, "# a comment", line)
+    with pytest.raises(LogError, match=None) as info:
+        list(read_carmen(path))
+    assert message in str(info.value)
+    assert isinstance(info.value, ValueError)
+
+
+def test_metres_logged_as_millimetres_are_refused(tmp_path: Path) -> None:
+    ranges = " ".join(["1.5"] * 12)
+    path = write(tmp_path, f"FLASER 12 {ranges} 0 0 0 0 0 0 1 host 1")
+    with pytest.raises(LogError, match="x.log:1: median range 0.0015 m is implausibly short"):
+        list(read_carmen(path, CarmenOptions(unit="mm")))
+
+
+def test_bad_param_is_refused(tmp_path: Path) -> None:
+    path = write(tmp_path, "PARAM robot_front_laser_max far", FLASER)
+    with pytest.raises(LogError, match="x.log:2: PARAM robot_front_laser_max 'far' is not a positive number"):
+        list(read_carmen(path))
+
+
+def test_open_log_picks_the_reader(tmp_path: Path) -> None:
+    assert len(list(open_log(INTEL))) == 30
+    assert len(list(open_log(DATA / "killian-excerpt.g2o"))) == 3
+    with pytest.raises(LogError, match="no such log"):
+        open_log(tmp_path / "missing.log")
