@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 
 from evidential import RULES, Frame, MassFunction, combine, conflict
 from evmap.maps import map_file, map_json, occupancy, planner
-from evmap.maps.map_file import GRAPH_KEYS, LINE_KEYS, LINE_KIND, POINT_KEYS, POINT_KINDS, MapParts
+from evmap.maps.map_file import GRAPH_KEYS, ID_PREFIXES, LINE_KEYS, LINE_KIND, POINT_KEYS, POINT_KINDS, MapParts
 from evmap.maps.observation import Observation
 from evmap.maps.pipeline import PoseOutcome, fold_observation
 from evmap.maps.planner import Line, Point
@@ -49,9 +49,6 @@ from evmap.maps.spatial import Bounds, SpatialIndex
 from evmap.sources.config import Config, config_from_data
 
 __all__ = ["BeliefMap", "new_map"]
-
-ID_PREFIXES = ("L", "C", "E", "U")
-"""The prefixes of the ids :meth:`BeliefMap.new_id` hands out: lines, corners, end points, unidentified."""
 
 
 class BeliefMap:

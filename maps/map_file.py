@@ -11,7 +11,10 @@ raises :class:`MapFileError` naming the file, the place (``nodes[3].xy``) and th
 
 from __future__ import annotations
 
+import hashlib
 import operator
+import os
+import stat
 from dataclasses import dataclass
 from itertools import chain, repeat
 from pathlib import Path
@@ -26,18 +29,25 @@ from evidential import RULES, Frame, MassFunction
 from evmap.maps import map_json
 from evmap.maps.occupancy import write_atomic
 from evmap.maps.segments import SegmentStore
+from evmap.sources.config import config_from_data
+from evmap.sources.evidence import MASS_TOLERANCE
 from evmap.sources.loading import InputError
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
 __all__ = [
+    "CHECKSUM_KEY",
     "GRAPH_KEYS",
+    "ID_PREFIXES",
     "LINE_KEYS",
     "LINE_KIND",
+    "MAX_MAP_BYTES",
     "POINT_KEYS",
     "POINT_KINDS",
+    "RELATIONS",
     "SCHEMA_VERSION",
+    "TRUTHS",
     "MapFileError",
     "MapParts",
     "map_data",
@@ -66,6 +76,21 @@ POINT_KEYS = ("id", "xy", "kind", "mass", "history")
 
 LINE_KEYS = ("id", "kind", "mass", "history", "source", "target")
 """Attributes of a line the map itself keeps."""
+
+ID_PREFIXES = ("L", "C", "E", "U")
+"""The prefixes of the ids a map hands out (``graph.next_id``): lines, corners, end points, unidentified."""
+
+TRUTHS = ("real", "noise", "")
+"""The values of a segment's ``truth``: the simulator's ground truth, ``""`` where unknown (measured data)."""
+
+RELATIONS = ("", "outside", "partly_inside", "inside")
+"""The values of a segment's ``relation`` to the sonar open space (``""``: not judged)."""
+
+MAX_MAP_BYTES = 128 * 1024 * 1024
+"""The largest map file :func:`read_file` reads (a map in memory takes about 17 times its file's size)."""
+
+CHECKSUM_KEY = b'"checksum":"'
+"""The last member of a written map file: the SHA-256 of the file without it, in hex."""
 
 _NODE_REQUIRED = frozenset(("id", "xy", "kind", "mass"))
 _EDGE_REQUIRED = frozenset(("id", "kind", "mass", "source", "target"))
@@ -105,8 +130,8 @@ def map_data(bm: BeliefMap) -> dict[str, Any]:
 
     Each edge's ``source`` -> ``target`` is the line's ``u`` -> ``v``; nodes and
     edges in insertion order. The records are new dicts; their values
-    (histories, extras) are the map's own. The edges are also under ``links``,
-    the key networkx before 3.4 reads by default.
+    (histories, extras) are the map's own. ``networkx.node_link_graph(data)``
+    reads it as it is (networkx >= 3.6 reads ``edges`` by default).
     """
     with map_json.gc_paused():
         g = bm.graph
@@ -139,27 +164,67 @@ def write_map(bm: BeliefMap, path: str | Path) -> None:
     as lists, except ``xy``).
     """
     map_json.check_json({k: v for k, v in bm.graph.graph.items() if k not in GRAPH_KEYS}, "graph")
+    segments = bm.segments
+    for name in ("p", "q"):
+        bad = np.flatnonzero(~np.isfinite(getattr(segments, name)).all(axis=1))
+        if len(bad):
+            raise ValueError(f"cannot save the map to {path}: segment {bad[0]} has a non-finite end ({name})")
     try:
         with map_json.gc_paused():
             text = orjson.dumps(map_data(bm))  # the records are freed before the file is written
     except TypeError as exc:  # an attribute changed in the graph directly, bypassing the checks
         raise ValueError(f"cannot save the map to {path}: {exc}") from None
-    write_atomic(path, text)
+    digest = hashlib.sha256(text).hexdigest().encode()
+    write_atomic(path, text[:-1] + b"," + CHECKSUM_KEY + digest + b'"}')
 
 
 def read_file(path: str | Path) -> MapParts:
-    """Read and check the map file ``path`` (see :func:`read_map`)."""
+    """Read and check the map file ``path`` (see :func:`read_map`): its size, its checksum, then its content.
+
+    A file of schema version 2 must end with the checksum :func:`write_map` writes;
+    one that does not match (a flipped bit, an edit by hand) is refused.
+    """
     try:
-        text = Path(path).read_bytes()
+        with open(path, "rb") as file:
+            if not stat.S_ISREG(os.fstat(file.fileno()).st_mode):
+                raise MapFileError(f"{path}: not a regular file")
+            text = file.read(MAX_MAP_BYTES + 1)
     except OSError as exc:
         raise MapFileError(f"{path}: cannot read file: {exc}") from None
+    if len(text) > MAX_MAP_BYTES:
+        raise MapFileError(f"{path}: larger than the limit of {MAX_MAP_BYTES} bytes for a map file")
+    checked = _checksum_ok(text)
     with map_json.gc_paused():
         try:
             data = orjson.loads(text)
         except orjson.JSONDecodeError as exc:
             raise MapFileError(f"{path}: not valid JSON (truncated or corrupt?): {exc}") from None
         del text  # free the file's bytes before the map is built: a big map needs the memory
-        return _MapReader(str(path), owned=True).read(data)
+        if checked is None and isinstance(data, dict) and "checksum" in data:
+            checked = False  # a checksum, but not where and as evmap writes it: the file was rewritten
+        if checked is False:
+            raise MapFileError(f"{path}: the checksum does not match the content: the file was changed or damaged")
+        if isinstance(data, dict):
+            data.pop("checksum", None)
+        version = (
+            data["graph"].get("schema_version")
+            if isinstance(data, dict) and isinstance(data.get("graph"), dict)
+            else None
+        )
+        parts = _MapReader(str(path), owned=True).read(data)
+        if checked is None and version >= 2:
+            raise MapFileError(f"{path}: the checksum is missing: the file was changed after evmap wrote it")
+        return parts
+
+
+def _checksum_ok(text: bytes) -> bool | None:
+    """Whether the file's closing checksum matches the rest; None if it has none."""
+    end = text.rstrip()
+    at = end.rfind(b"," + CHECKSUM_KEY)
+    if at < 0 or not end.endswith(b'"}') or len(end) - at != len(CHECKSUM_KEY) + 1 + 64 + 2:
+        return None
+    digest = end[at + 1 + len(CHECKSUM_KEY) : -2]
+    return hashlib.sha256(end[:at] + b"}").hexdigest().encode() == digest
 
 
 def read_map(data: Any, name: str = "map") -> MapParts:
@@ -199,12 +264,12 @@ class _MapReader:
         if not all(map(POINT_KINDS.__contains__, kinds)):
             i = next(i for i, kind in enumerate(kinds) if kind not in POINT_KINDS)
             raise self.fail(f"nodes[{i}].kind", f"must be one of {list(POINT_KINDS)}, got {map_json.shown(kinds[i])}")
-        for d, point, mass in zip(nodes, xy, self.masses(codec, nodes, "nodes"), strict=True):
+        for d, point, mass in zip(nodes, xy, self.masses(codec, nodes, "nodes", parts.rule), strict=True):
             d["xy"] = point
             d["mass"] = mass
         edges = self.records(data["edges"], "edges", _EDGE_REQUIRED, frozenset(d["id"] for d in nodes))
         parts.ends = self.ends(edges, frozenset(d["id"] for d in nodes))
-        for d, mass in zip(edges, self.masses(codec, edges, "edges"), strict=True):
+        for d, mass in zip(edges, self.masses(codec, edges, "edges", parts.rule), strict=True):
             d["mass"] = mass
         parts.nodes, parts.edges = nodes, edges
         return parts
@@ -232,6 +297,7 @@ class _MapReader:
         if not isinstance(rule, str) or rule not in RULES:
             raise self.fail("graph.rule", f"must be one of {sorted(RULES)}, got {map_json.shown(rule)}")
         extras = {k: v for k, v in attrs.items() if k not in GRAPH_KEYS}
+        self.check_extras(extras, frame, rule)
         segments = None
         if "segments" in attrs:
             columns = attrs["segments"]
@@ -241,6 +307,7 @@ class _MapReader:
                 segments = SegmentStore.from_json(columns, frame)
             except ValueError as exc:
                 raise self.fail("graph.segments", str(exc)) from None
+            self.check_segments(segments, rule)
         open_space = None
         if "open_space" in attrs:
             try:
@@ -248,6 +315,67 @@ class _MapReader:
             except (ValueError, TypeError, shapely.errors.ShapelyError) as exc:
                 raise self.fail("graph.open_space", str(exc)) from None
         return MapParts(frame, rule, extras, segments, open_space, [], [], [])
+
+    def check_extras(self, extras: dict[str, Any], frame: Frame, rule: str) -> None:
+        """The pipeline's graph attributes, where present: its config (its frame and rule the map's), ids, poses."""
+        if "config" in extras:
+            try:
+                config = config_from_data(extras["config"], f"{self.name}: graph.config")
+            except InputError as exc:
+                raise MapFileError(str(exc)) from None
+            if config.frame != frame or config.rule != rule:
+                raise self.fail(
+                    "graph.config",
+                    f"its frame {list(config.frame.elements)} and rule {config.rule!r} are not the map's "
+                    f"({list(frame.elements)}, {rule!r})",
+                )
+        if "next_id" in extras:
+            counters = extras["next_id"]
+            if not (
+                type(counters) is dict
+                and set(counters) <= set(ID_PREFIXES)
+                and all(type(n) is int and n >= 1 for n in counters.values())
+            ):
+                raise self.fail(
+                    "graph.next_id",
+                    f"must map id prefixes {list(ID_PREFIXES)} to whole numbers >= 1, got {map_json.shown(counters)}",
+                )
+        if "poses" in extras:
+            poses = extras["poses"]
+            if not (type(poses) is list and all(type(i) is int and i >= 0 for i in poses)) or len(set(poses)) < len(
+                poses
+            ):
+                raise self.fail("graph.poses", f"must be distinct pose indexes >= 0, got {map_json.shown(poses)}")
+
+    def check_segments(self, store: SegmentStore, rule: str) -> None:
+        """The segments' columns hold what the pipeline writes: finite ends, known values, mass functions."""
+        checks = [
+            ("p", np.isfinite(store.p).all(axis=1), "end points must be finite"),
+            ("q", np.isfinite(store.q).all(axis=1), "end points must be finite"),
+            ("pose", store.pose >= 0, "a pose index is >= 0"),
+            ("truth", np.isin(store.truth, TRUTHS), f"must be one of {list(TRUTHS)}"),
+            ("relation", np.isin(store.relation, RELATIONS), f"must be one of {list(RELATIONS)}"),
+        ]
+        mass = store.mass
+        total = mass.sum(axis=1)
+        judged = total != 0
+        checks += [
+            ("mass", np.isfinite(mass).all(axis=1) & (mass >= 0).all(axis=1), "masses must be finite and >= 0"),
+            (
+                "mass",
+                ~judged | (np.abs(total - 1) <= MASS_TOLERANCE),
+                f"masses must sum to 1 (within {MASS_TOLERANCE})",
+            ),
+        ]
+        if not RULES[rule].open_world:
+            checks.append(("mass", mass[:, 0] == 0, f"the map's rule {rule!r} leaves no mass on the empty set"))
+        for column, good, problem in checks:
+            if not good.all():
+                i = int(np.argmin(good))
+                raise self.fail(
+                    f"graph.segments.{column}[{i}]",
+                    f"{problem}, got {map_json.shown(getattr(store, column)[i].tolist())}",
+                )
 
     def segment_masses(self, codec: map_json.MassCodec, masses: list[Any]) -> NDArray[np.float64]:
         """The segments' ``{FOCAL: float}`` masses as dense rows; ``{}`` (a segment not judged) is a row of zeros."""
@@ -342,11 +470,18 @@ class _MapReader:
                 seen.add((u, v))
         return list(zip(us, vs, strict=True))
 
-    def masses(self, codec: map_json.MassCodec, records: list[dict[str, Any]], key: str) -> list[MassFunction]:
+    def masses(
+        self, codec: map_json.MassCodec, records: list[dict[str, Any]], key: str, rule: str
+    ) -> list[MassFunction]:
         try:
-            return codec.decode([r["mass"] for r in records])
+            masses = codec.decode([r["mass"] for r in records])
         except map_json.BadMass as exc:
             raise self.fail(f"{key}[{exc.index}].mass", exc.problem) from None
+        if not RULES[rule].open_world:
+            for i, m in enumerate(masses):
+                if m[0] > 0:
+                    raise self.fail(f"{key}[{i}].mass", f"the map's rule {rule!r} leaves no mass on the empty set")
+        return masses
 
 
 _NO_HISTORY: list[Any] = []

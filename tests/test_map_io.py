@@ -27,7 +27,7 @@ def awkward_mass(rng: np.random.Generator) -> MassFunction:
 @pytest.fixture
 def bm() -> BeliefMap:
     rng = np.random.default_rng(5)
-    bm = BeliefMap(FRAME, "dempster", config={"noise": {"threshold": 0.5}}, notes=[{"id": 0, "p": [0.1, 1 / 3]}])
+    bm = BeliefMap(FRAME, "dempster", settings={"noise": {"threshold": 0.5}}, notes=[{"id": 0, "p": [0.1, 1 / 3]}])
     bm.add_point("E2", (4 / 3, 1e-300), "endpoint", awkward_mass(rng))  # added first: u -> v order must survive
     bm.add_point("C1", (0.1 + 0.2, -2 / 7), "corner", awkward_mass(rng), shape="concave", reinforced=True)
     bm.add_point("U1", (3.25, math.pi), "unidentified", awkward_mass(rng),
@@ -82,6 +82,8 @@ def test_the_file_is_the_contracts_node_link_json(bm, tmp_path):
     path = tmp_path / "map.json"
     bm.save(path)
     data = json.loads(path.read_text())  # standard JSON
+    checksum = data.pop("checksum")  # the file's last member, the SHA-256 of the rest
+    assert len(checksum) == 64 and int(checksum, 16) >= 0
     assert data == json.loads(json.dumps(bm.to_data()))
     assert {"schema_version", "frame", "rule"} <= set(data["graph"]) and data["graph"]["schema_version"] == 2
     assert data["graph"]["frame"] == ["real", "noise"] and data["graph"]["rule"] == "dempster"
@@ -124,10 +126,10 @@ def test_save_is_atomic_and_leaves_no_temporary_file(bm, tmp_path, monkeypatch):
 
 def test_save_refuses_attributes_json_cannot_carry(bm, tmp_path):
     path = tmp_path / "map.json"
-    bm.graph.graph["config"] = {"threshold": float("nan")}
-    with pytest.raises(ValueError, match="config.threshold.*not finite"):
+    bm.graph.graph["settings"] = {"threshold": float("nan")}
+    with pytest.raises(ValueError, match="settings.threshold.*not finite"):
         bm.save(path)
-    bm.graph.graph["config"] = {}
+    bm.graph.graph["settings"] = {}
     bm.graph.nodes["C1"]["score"] = np.float32(1)  # changed behind the map's back
     with pytest.raises(ValueError, match="cannot save.*float32"):
         bm.save(path)
