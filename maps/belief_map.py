@@ -75,11 +75,12 @@ class BeliefMap:
     >>> new = bm.fold("L1", MassFunction(bm.frame, {"real": 0.5, "real|noise": 0.5}), {"pose": 0})
     >>> round(bm["L1"].belief, 2), bm.graph.edges["C1", "E1"]["history"][0]["rule"]
     (0.8, 'dempster')
+    >>> bm.open_space = shapely.box(-1, -1, 3, 2)  # what the sonar saw free
     >>> bm.is_segment_clear((0.0, 1.0), (2.0, 1.0), clearance=0.2), bm.is_segment_clear((1.0, 1.0), (1.0, 0.1))
     (True, False)
     >>> grid = bm.occupancy_grid(resolution=0.1)
     >>> grid.dtype, grid.shape, int(grid.max())
-    (dtype('int8'), (5, 25), 90)
+    (dtype('int8'), (35, 45), 61)
     >>> import pathlib, tempfile
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     bm.save(pathlib.Path(tmp) / "map.json")
@@ -448,10 +449,15 @@ class BeliefMap:
         return planner.nearest_obstacle(self, xy, min_belief)
 
     def is_segment_clear(
-        self, a: Iterable[float], b: Iterable[float], clearance: float = 0.2, min_belief: float = 0.5
+        self,
+        a: Iterable[float],
+        b: Iterable[float],
+        clearance: float = 0.2,
+        min_belief: float = 0.5,
+        unknown: str = "blocked",
     ) -> bool:
-        """:func:`evmap.maps.planner.is_segment_clear`: no known obstacle within ``clearance`` of ``a``-``b``."""
-        return planner.is_segment_clear(self, a, b, clearance, min_belief)
+        """:func:`evmap.maps.planner.is_segment_clear`: no obstacle near ``a``-``b``, unknown space blocked."""
+        return planner.is_segment_clear(self, a, b, clearance, min_belief, unknown)
 
     def occupancy_masses(
         self, resolution: float = 0.05, params: occupancy.OccupancyParams | None = None

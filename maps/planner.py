@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
 __all__ = [
+    "UNKNOWN_POLICIES",
     "Line",
     "MapState",
     "ObstacleTree",
@@ -50,6 +51,9 @@ __all__ = [
 
 FIRST_REACH = 2.0
 """How much farther (m) :func:`nearest_obstacle` first looks when the nearest obstacles in its tree have changed."""
+
+UNKNOWN_POLICIES = ("blocked", "free")
+"""What :func:`is_segment_clear` makes of space the map knows nothing of: an obstacle, or free."""
 
 REBUILD_CHANGES = 256
 REBUILD_SHARE = 0.02
@@ -274,17 +278,36 @@ def nearest_obstacle(bm: BeliefMap, xy: Iterable[float], min_belief: float = 0.5
 
 
 def is_segment_clear(
-    bm: BeliefMap, a: Iterable[float], b: Iterable[float], clearance: float = 0.2, min_belief: float = 0.5
+    bm: BeliefMap,
+    a: Iterable[float],
+    b: Iterable[float],
+    clearance: float = 0.2,
+    min_belief: float = 0.5,
+    unknown: str = "blocked",
 ) -> bool:
-    """True if every obstacle with belief at least ``min_belief`` is farther than ``clearance`` from ``a``-``b``.
+    """True if the straight path ``a``-``b`` is clear: no obstacle with belief at least ``min_belief``
+    within ``clearance`` of it, and, with ``unknown="blocked"`` (the default), the whole path in the
+    free space the map knows (its open space): a path into space no sensor saw free is not clear.
 
-    Only known obstacles count: the segment may cross space the map knows nothing of.
+    With ``unknown="free"`` only known obstacles count, and a path may leave the building.
+
+    >>> from evidential import MassFunction
+    >>> from evmap.maps import BeliefMap
+    >>> import shapely
+    >>> bm = BeliefMap(["real", "noise"])
+    >>> bm.open_space = shapely.box(0, 0, 4, 4)
+    >>> bm.is_segment_clear((1, 1), (3, 3)), bm.is_segment_clear((1, 1), (6, 1)), bm.is_segment_clear((1, 1), (6, 1), unknown="free")
+    (True, False, True)
     """
+    if unknown not in UNKNOWN_POLICIES:
+        raise ValueError(f"unknown must be one of {list(UNKNOWN_POLICIES)}, got {unknown!r}")
     a, b = np.array(point(a, "a")), np.array(point(b, "b"))
     if not (isinstance(clearance, Real) and 0 <= clearance < math.inf):
         raise ValueError(f"clearance must be a finite number >= 0 (m), got {clearance!r}")
     tree = obstacle_tree(bm, belief_level(min_belief))
     path = _geometries(a[None], b[None])[0]
+    if unknown == "blocked" and not bm.open_space_near((*np.minimum(a, b), *np.maximum(a, b))).covers(path):
+        return False
     hits = tree.tree.query(path, predicate="dwithin", distance=clearance).tolist()
     if any(tree.tree_ids[i] not in tree.dirty for i in hits):
         return False

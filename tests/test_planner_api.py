@@ -92,7 +92,7 @@ def test_is_segment_clear_agrees_with_brute_force(bm, min_belief):
     rng = np.random.default_rng(2)
     answers = []
     for a, b, clearance in zip(rng.uniform(0, 10, (150, 2)), rng.uniform(0, 10, (150, 2)), rng.uniform(0, 0.5, 150)):
-        clear = bm.is_segment_clear(a, b, clearance=clearance, min_belief=min_belief)
+        clear = bm.is_segment_clear(a, b, clearance=clearance, min_belief=min_belief, unknown="free")
         expected = bool((shapely.distance(geoms, shapely.LineString([a, b])) > clearance).all())
         assert clear == expected
         answers.append(clear)
@@ -105,25 +105,25 @@ def test_clearance_boundary_corners_and_degenerate_segments():
     bm.add_point("C2", (4, 0), "corner", mass(0.9))
     bm.add_line("L1", "C1", "C2", mass(0.9))
     bm.add_point("U1", (2, 3), "unidentified", mass(0.9))
-    assert bm.is_segment_clear((0, 1), (4, 1), clearance=0.5)
-    assert not bm.is_segment_clear((0, 1), (4, 1), clearance=1.0)  # exactly at the clearance: not clear
-    assert not bm.is_segment_clear((2, 2.9), (2, 2.9), clearance=0.2)  # a point next to U1
+    assert bm.is_segment_clear((0, 1), (4, 1), clearance=0.5, unknown="free")
+    assert not bm.is_segment_clear((0, 1), (4, 1), clearance=1.0, unknown="free")  # exactly at the clearance: not clear
+    assert not bm.is_segment_clear((2, 2.9), (2, 2.9), clearance=0.2, unknown="free")  # a point next to U1
     assert bm.nearest_obstacle((2, 2.5)) == (0.5, "U1")
     assert bm.nearest_obstacle((-1, 0)) == (1.0, "L1")  # corners are not obstacles: their lines are
     assert bm.nearest_obstacle((2, 2.5), min_belief=0.95) == (math.inf, None)
-    assert bm.is_segment_clear((0, 0), (4, 0), min_belief=0.95)
+    assert bm.is_segment_clear((0, 0), (4, 0), min_belief=0.95, unknown="free")
 
 
 def test_queries_follow_changes_of_the_map():
     bm = BeliefMap(FRAME)
     bm.add_point("C1", (0, 0), "corner", mass(0.9))
     bm.add_point("C2", (4, 0), "corner", mass(0.9))
-    assert bm.nearest_obstacle((2, 1)) == (math.inf, None) and bm.is_segment_clear((0, 0), (4, 0))
+    assert bm.nearest_obstacle((2, 1)) == (math.inf, None) and bm.is_segment_clear((0, 0), (4, 0), unknown="free")
     bm.add_line("L1", "C1", "C2", mass(0.4))
     assert bm.nearest_obstacle((2, 1)) == (math.inf, None)
     assert bm.nearest_obstacle((2, 1), min_belief=0.3) == (1.0, "L1")
     bm.fold("L1", mass(0.5), {"pose": 1})  # belief 0.7: now an obstacle at 0.5
-    assert bm.nearest_obstacle((2, 1)) == (1.0, "L1") and not bm.is_segment_clear((2, 0.1), (2, 2))
+    assert bm.nearest_obstacle((2, 1)) == (1.0, "L1") and not bm.is_segment_clear((2, 0.1), (2, 2), unknown="free")
     bm.set_attrs("C2", xy=(4, 4))
     assert bm.nearest_obstacle((4, 0))[0] == pytest.approx(math.sqrt(8))
     bm.remove_line("L1")
@@ -158,7 +158,7 @@ def check_queries(bm: BeliefMap, min_belief: float, a: tuple[float, float], b: t
         assert found == min(i for i, di in zip(ids, d, strict=True) if di <= d.min() + 1e-9)  # ties: by id
     d = shapely.distance(geoms, shapely.LineString([a, b])) if ids else np.zeros(0)
     if not np.any(np.abs(d - clearance) < 1e-9):  # not on the boundary, where rounding decides
-        assert bm.is_segment_clear(a, b, clearance, min_belief) == bool((d > clearance).all())
+        assert bm.is_segment_clear(a, b, clearance, min_belief, unknown="free") == bool((d > clearance).all())
 
 
 coordinate = st.floats(-4, 24, allow_nan=False).map(lambda v: round(v, 1))  # round: ties and touching segments
@@ -202,15 +202,27 @@ def test_queries_right_after_changes_agree_with_brute_force(seed, changes, min_b
     check_queries(bm, min_belief, (1e4, -1e4), (-1e4, 1e4), clearance)  # from far away: found, not searched forever
 
 
+def test_unknown_space_blocks_a_path_unless_told_free():
+    bm = BeliefMap(FRAME)
+    assert not bm.is_segment_clear((0, 0), (1, 0))  # a map that saw nothing free: nothing is clear
+    bm.open_space = shapely.Polygon([(0, 0), (4, 0), (4, 4), (0, 4)]).difference(shapely.box(1.5, 1.5, 2.5, 2.5))
+    assert bm.is_segment_clear((0.5, 0.5), (3.5, 0.5))
+    assert not bm.is_segment_clear((0.5, 0.5), (5.0, 0.5))  # leaves the building
+    assert not bm.is_segment_clear((0.5, 2.0), (3.5, 2.0))  # crosses a hole no sensor saw free
+    assert bm.is_segment_clear((0.5, 0.5), (5.0, 0.5), unknown="free")
+    with pytest.raises(ValueError, match="unknown must be one of"):
+        bm.is_segment_clear((0, 0), (1, 0), unknown="maybe")
+
+
 def test_queries_without_obstacles_and_on_a_freshly_loaded_map(tmp_path):
     bm = BeliefMap(FRAME)
-    assert bm.nearest_obstacle((3, 4), 0.0) == (math.inf, None) and bm.is_segment_clear((0, 0), (1, 1), 1e9)
+    assert bm.nearest_obstacle((3, 4), 0.0) == (math.inf, None) and bm.is_segment_clear((0, 0), (1, 1), 1e9, unknown="free")
     for i in range(50):  # a row of corners, none an obstacle, and one faint target far off
         bm.add_point(f"C{i}", (i * 3.0, 0.0), "corner", mass(0.9))
     bm.add_point("U1", (500.0, 500.0), "unidentified", mass(0.1))
-    assert bm.nearest_obstacle((0, 0)) == (math.inf, None) and bm.is_segment_clear((0, 0), (150, 0), 1e9)
+    assert bm.nearest_obstacle((0, 0)) == (math.inf, None) and bm.is_segment_clear((0, 0), (150, 0), 1e9, unknown="free")
     assert bm.nearest_obstacle((0, 0), 0.1) == (pytest.approx(math.hypot(500, 500)), "U1")
-    assert not bm.is_segment_clear((0, 0), (150, 0), 1e9, 0.1)
+    assert not bm.is_segment_clear((0, 0), (150, 0), 1e9, 0.1, unknown="free")
     bm.save(tmp_path / "map.json")
     loaded = BeliefMap.load(tmp_path / "map.json")
     with patch.object(planner, "MapState", side_effect=AssertionError("rebuilt from the whole map")):
