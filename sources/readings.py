@@ -15,7 +15,25 @@ from numpy.typing import ArrayLike, NDArray
 
 from evmap.sources.params import SonarParams
 
-__all__ = ["LslSegments", "ScanError", "SonarScan", "StripeScan", "concat_segments"]
+__all__ = [
+    "MAX_COORDINATE",
+    "OVER_RANGE",
+    "TRUTHS",
+    "LslSegments",
+    "ScanError",
+    "SonarScan",
+    "StripeScan",
+    "concat_segments",
+]
+
+MAX_COORDINATE = 1e7
+"""Largest distance (m) of a reading's coordinates from the origin: beyond it, float64 keeps under a nanometre."""
+
+OVER_RANGE = 1.5
+"""A reading above max_range by up to this factor is clipped to it (noise, timing); beyond it, refused."""
+
+TRUTHS = ("real", "noise", "")
+"""A segment's ground truth: ``real``, ``noise`` (simulated data), ``""`` unknown (measured data)."""
 
 
 def _readonly(a: NDArray[Any]) -> NDArray[Any]:
@@ -52,12 +70,13 @@ class SonarScan:
     checked): a NaN or negative range, a non-finite angle, duplicate or unordered
     angles, angles spanning a full turn or more, or arrays of different lengths
     raise :class:`ScanError` naming the array and index. A range beyond
-    ``max_range`` is set to ``max_range``: the timing circuit reports nothing longer.
+    ``max_range`` is set to ``max_range`` (the timing circuit reports nothing longer),
+    and one beyond :data:`OVER_RANGE` times it is refused (a reading in millimetres, say).
     The arrays are stored read-only.
 
     Examples
     --------
-    >>> scan = SonarScan.from_readings([0.0, 0.1, 0.2], [1.0, 1.0, 12.0], SonarParams())
+    >>> scan = SonarScan.from_readings([0.0, 0.1, 0.2], [1.0, 1.0, 11.0], SonarParams())
     >>> scan.ranges.tolist(), scan.order.tolist()
     ([1.0, 1.0, 10.0], [-1, -1, 0])
     >>> SonarScan.from_readings([0.0, 0.0], [1.0, 1.0], SonarParams())
@@ -104,6 +123,12 @@ class SonarScan:
         bad = np.flatnonzero(order < -1)
         if len(bad):
             raise ScanError(f"order[{bad[0]}] = {order[bad[0]]}: an order is -1 (unknown) or >= 0")
+        bad = np.flatnonzero(ranges > OVER_RANGE * self.params.max_range)
+        if len(bad):
+            raise ScanError(
+                f"ranges[{bad[0]}] = {ranges[bad[0]]:g}: more than {OVER_RANGE:g} times max_range "
+                f"({self.params.max_range:g} m): a reading in another unit (mm?) or of another sensor"
+            )
         ranges = np.minimum(ranges, self.params.max_range)
         for name, arr in (("pose", pose), ("angles", angles), ("ranges", ranges), ("target", target), ("order", order)):
             object.__setattr__(self, name, _readonly(arr))
@@ -184,6 +209,16 @@ class LslSegments:
     source : (N,) id of the world segment or cylinder that made most of a real
         segment's points; ``""`` for a phantom.
     pose : (N,) index of the pose the segment was observed from.
+
+    Construction checks the arrays: ends finite and within :data:`MAX_COORDINATE`
+    of the origin, ``truth`` one of :data:`TRUTHS`, one entry per segment in every
+    array; a :class:`ScanError` names the array and index otherwise.
+
+    >>> LslSegments(np.array([[0.0, 0.0]]), np.array([[np.nan, 1.0]]), np.array(["real"]),
+    ...             np.zeros(1, int), np.array([""]), np.zeros(1, int))
+    Traceback (most recent call last):
+    ...
+    sources.readings.ScanError: q[0] = [nan, 1.0]: segment ends must be finite (metres)
     """
 
     p: NDArray[np.float64]
@@ -192,6 +227,28 @@ class LslSegments:
     snapshot: NDArray[np.intp]
     source: NDArray[np.str_]
     pose: NDArray[np.intp]
+
+    def __post_init__(self) -> None:
+        n = len(self.p)
+        for name in ("p", "q"):
+            ends = np.asarray(getattr(self, name), dtype=float)
+            if ends.shape != (n, 2):
+                raise ScanError(f"{name} must be an (N, 2) array of end points, got shape {ends.shape}")
+            bad = np.flatnonzero(~np.isfinite(ends).all(axis=1))
+            if len(bad):
+                raise ScanError(f"{name}[{bad[0]}] = {ends[bad[0]].tolist()}: segment ends must be finite (metres)")
+            bad = np.flatnonzero((np.abs(ends) > MAX_COORDINATE).any(axis=1))
+            if len(bad):
+                raise ScanError(
+                    f"{name}[{bad[0]}] = {ends[bad[0]].tolist()}: beyond {MAX_COORDINATE:g} m of the origin "
+                    "(metres expected; move the origin near the data)"
+                )
+        for name in ("truth", "snapshot", "source", "pose"):
+            if len(getattr(self, name)) != n:
+                raise ScanError(f"{name} has {len(getattr(self, name))} entries, p has {n}")
+        bad = np.flatnonzero(~np.isin(self.truth, TRUTHS))
+        if len(bad):
+            raise ScanError(f"truth[{bad[0]}] = {str(self.truth[bad[0]])!r}: must be one of {list(TRUTHS)}")
 
     def __len__(self) -> int:
         return len(self.p)

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from evmap.sources.params import RcdParams, SonarParams
 from evmap.sources.rcd import extract_rcds
-from evmap.sources.readings import ScanError, SonarScan
+from evmap.sources.readings import LslSegments, ScanError, SonarScan
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.surfaces import Surfaces
 
@@ -201,11 +201,27 @@ def test_from_readings_validation():
 
 
 def test_from_readings_clips_beyond_max_range_and_marks_no_echo():
-    scan = SonarScan.from_readings([0, 1, 2], [1.0, 10.0, 50.0], PARAMS)
+    scan = SonarScan.from_readings([0, 1, 2], [1.0, 10.0, 12.0], PARAMS)
     assert scan.ranges.tolist() == [1.0, 10.0, 10.0]
     assert scan.order.tolist() == [-1, 0, 0]
     with pytest.raises(ValueError):
         scan.ranges[0] = 3.0  # read-only
+
+
+def test_a_reading_in_millimetres_is_refused_not_clipped():
+    with pytest.raises(ScanError, match=r"ranges\[1\] = 3000: more than 1.5 times max_range \(10 m\)"):
+        SonarScan.from_readings([0, 1], [1.0, 3000.0], PARAMS)
+
+
+def test_lsl_segments_refuse_non_finite_far_and_unknown_truth():
+    one = dict(snapshot=np.zeros(1, int), source=np.array([""]), pose=np.zeros(1, int))
+    with pytest.raises(ScanError, match=r"p\[0\].*finite"):
+        LslSegments(np.array([[np.nan, 0.0]]), np.array([[1.0, 0.0]]), np.array(["real"]), **one)
+    with pytest.raises(ScanError, match=r"q\[0\].*beyond 1e\+07 m"):
+        LslSegments(np.array([[1.0, 1.0]]), np.array([[-1e300, 1.0]]), np.array(["real"]), **one)
+    with pytest.raises(ScanError, match=r"truth\[0\] = 'banana'"):
+        LslSegments(np.array([[0.0, 0.0]]), np.array([[1.0, 0.0]]), np.array(["banana"]), **one)
+    assert len(LslSegments(np.array([[0.0, 0.0]]), np.array([[1.0, 0.0]]), np.array([""]), **one)) == 1
 
 
 def test_empty_and_single_reading_scans():

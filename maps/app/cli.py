@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import signal
 import sys
 from collections.abc import Callable, Sequence
 from importlib.metadata import PackageNotFoundError, version
@@ -45,11 +47,37 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # argparse printed the usage error (2) or the help (0)
         return exc.code if isinstance(exc.code, int) else 2
     handler: Handler = args.handler
+    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         return handler(args)
-    except ValueError as exc:  # InputError and every other complaint about user input
+    except (ValueError, OSError) as exc:  # InputError, every other complaint about input, and output problems
+        if isinstance(exc, BrokenPipeError):
+            return _closed_pipe()
         print(f"evmap: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("evmap: interrupted", file=sys.stderr)
+        return 130
+    except Terminated:
+        print("evmap: terminated", file=sys.stderr)
+        return 143
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+class Terminated(Exception):
+    """SIGTERM arrived: the command stops as after Ctrl-C, cleaning up what it started."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
+def _closed_pipe() -> int:
+    """Standard output's reader went away (``evmap config check | head``): stop quietly, as SIGPIPE would."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())  # so that the interpreter's final flush does not fail again
+    return 141
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -162,3 +190,7 @@ def _version() -> str:
         return version("evmap")
     except PackageNotFoundError:  # run from a checkout that was never installed
         return "unknown (not installed)"
+
+
+if __name__ == "__main__":
+    sys.exit(main())
