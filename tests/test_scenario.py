@@ -147,8 +147,8 @@ def test_too_many_sunlight_lines_refused_first() -> None:
 @pytest.mark.parametrize(
     ("lines", "where"),
     [
-        (1_000_000, r"world\.sunlight: 1000000 sunlight lines, more than the limit of 20000"),
-        (15_000, r"world\.sunlight\[0\]\.lines: Input should be less than or equal to 10000"),
+        (1_000_000, r"world\.sunlight: 1000000 sunlight lines, more than the limit of 400"),
+        (300, r"world\.sunlight\[0\]\.lines: Input should be less than or equal to 200"),
     ],
 )
 def test_too_many_lines_in_one_region_refused(lines: int, where: str) -> None:

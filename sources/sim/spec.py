@@ -40,11 +40,11 @@ MAX_CYLINDERS = 1_000
 """Most cylinders in a scenario."""
 MAX_SUNLIGHT_REGIONS = 100
 """Most sunlight regions in a scenario."""
-MAX_SUNLIGHT_LINES_PER_REGION = 10_000
+MAX_SUNLIGHT_LINES_PER_REGION = 200
 """Most phantom lines one sunlight region makes per pose."""
-MAX_SUNLIGHT_LINES = 20_000
+MAX_SUNLIGHT_LINES = 400
 """Most phantom lines all sunlight regions together make per pose."""
-MAX_PHANTOMS_PER_RUN = 100_000
+MAX_PHANTOMS_PER_RUN = 2_000
 """Most phantom lines over the whole run: poses times the phantom lines of all regions."""
 MAX_POLYGON_VERTICES = 1_000
 """Most vertices of one sunlight polygon."""
