@@ -18,7 +18,10 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from evidential import combine_batch
+from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally
 from evmap.maps.merging import related_pairs
+from evmap.maps.sensed import SENSED_FEATURES, keep_features, sensed
+from evmap.maps.sonar_forward import SonarForwardParams, free_ends, sonar_forward
 from evmap.sources.config import Config
 from evmap.sources.params import MergeParams
 from evmap.sources.relation import relation
@@ -28,7 +31,7 @@ if TYPE_CHECKING:
 
 __all__ = ["COMPUTED", "NoiseEvidence", "judge", "noise_evidence", "other_poses"]
 
-COMPUTED = ("relation", "length", "lsl_other_poses")
+COMPUTED = ("relation", "length", "lsl_other_poses", "contour_free", "lsl_persistence", "sonar_forward")
 """The features the pipeline computes for the noise-elimination sources (an observation brings any others)."""
 
 
@@ -63,7 +66,8 @@ def noise_evidence(
 
     The sources read the features ``relation`` and ``length`` (computed here) and
     any others given in ``features`` (one value per segment; the pipeline gives
-    ``lsl_other_poses``, see :func:`other_poses`; 0 when not given).
+    ``lsl_other_poses``, see :func:`other_poses`, 0 when not given, and the
+    features of the sensed rays and scans, see :func:`judge`, no evidence when not given).
 
     >>> from evmap.sources.config import load_config
     >>> room = shapely.box(0, 0, 4, 4)
@@ -78,6 +82,7 @@ def noise_evidence(
         raise ValueError(f"{config.name}: noise elimination needs an element 'noise' in the frame {frame!r}")
     features = {
         "lsl_other_poses": np.zeros(len(p), dtype=np.intp),  # seen from one pose, unless told otherwise
+        **{name: np.full(len(p), none) for name, none in SENSED_FEATURES.items()},
         **(features or {}),
         "relation": relation(p, q, open_space, config.noise),
         "length": np.hypot(*(q - p).T),
@@ -99,7 +104,10 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
 
     Writes each segment's relation, fused mass, conflict and fate into the map's
     segment store; the open space and the other poses' segments are looked up
-    near the segments only.
+    near the segments only. The features of the sensed readings
+    (:mod:`evmap.maps.sensed`) are computed when a source reads them:
+    ``contour_free`` and ``lsl_persistence`` (:mod:`evmap.maps.contour_free_space`)
+    and ``sonar_forward`` (:mod:`evmap.maps.sonar_forward`).
     """
     store = bm.segments
     if not len(ids):
@@ -113,6 +121,21 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
         store.p[ids], store.q[ids], store.pose[ids], store.p[near], store.q[near], store.pose[near], config.merge
     )
     features = {**{name: column[ids] for name, column in store.features.items()}, "lsl_other_poses": seen}
+    read = {
+        source.feature
+        for stage in ("noise_elimination", "repeated_observation")
+        for source in config.stage_sources(stage)
+    }
+    poses = sensed(bm)
+    if read & {"contour_free", "lsl_persistence"}:
+        lsl = config.sensors.lsl
+        params = RayParams(range_noise=lsl.range_noise, max_range=lsl.max_range)
+        features |= ray_features(ray_tally(store.p[ids], store.q[ids], store.pose[ids], poses, params), params)
+    if "sonar_forward" in read:
+        sonar = SonarForwardParams()
+        free = free_ends(store.p[ids], store.q[ids], store.p[near], store.q[near], sonar.end_clearance)
+        features["sonar_forward"] = sonar_forward(store.p[ids], store.q[ids], free, poses, sonar)
+    keep_features(bm, ids, {name: features[name] for name in SENSED_FEATURES if name in features})
     ev = noise_evidence(store.p[ids], store.q[ids], space, config, features)
     store.relation[ids] = ev.relation
     store.mass[ids] = ev.fused

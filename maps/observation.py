@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from evmap.maps.noise import COMPUTED
 from evmap.sources.config import Config
 from evmap.sources.readings import LslSegments, SonarScan
-from evmap.sources.sim.lsl import observe_lsl
+from evmap.sources.sim.lsl import observe_stripe
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World
 
@@ -40,12 +40,16 @@ class Observation:
         sources, name -> one value per LSL segment (a new sensor's reading of
         each segment, say ``{"ir_return": [...]}``); the pipeline computes
         :data:`evmap.maps.noise.COMPUTED` itself.
+    rays : (K, 2) the contour sensor's rays, if it gives them: world bearing (rad)
+        from the pose and measured range (m, NaN for no return) of every stripe
+        point; the free space of the contour and its evidence are made from them.
     """
 
     pose_index: int
     sonar: SonarScan
     lsl: LslSegments
     features: Mapping[str, ArrayLike] = field(default_factory=dict)
+    rays: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.pose_index, int | np.integer) or self.pose_index < 0:
@@ -79,4 +83,5 @@ def observe(world: World, pose_index: int, config: Config) -> Observation:
     sonar, lsl = world.scenario.sensor_params(config.sensors.sonar, config.sensors.lsl)
     rng = np.random.default_rng([world.seed, pose_index, SONAR_STREAM])
     scan = simulate_scan(world.surfaces(), world.poses[pose_index], sonar, rng=rng)
-    return Observation(pose_index, scan, observe_lsl(world, pose_index, lsl))
+    segments, rays = observe_stripe(world, pose_index, lsl)
+    return Observation(pose_index, scan, segments, rays=rays)

@@ -32,6 +32,7 @@ from evmap.maps.noise import COMPUTED, judge
 from evmap.maps.observation import Observation
 from evmap.maps.rebuild import rebuild, refresh_points
 from evmap.maps.reinforcement import reinforce
+from evmap.maps.sensed import remember
 from evmap.maps.simulated_sonar import check_sonar
 from evmap.maps.unidentified import add_unidentified
 from evmap.sources.config import Config
@@ -80,6 +81,7 @@ def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOut
     check_observation(bm, obs, config)
     store = bm.segments
     bm.add_pose(int(obs.pose_index))
+    remember(bm, obs)
     pose = obs.pose
 
     # 1. open space of this pose, added to the map's

@@ -22,6 +22,7 @@ from evidential import MassFunction, combine
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import Merged, merge_segments
 from evmap.maps.noise import noise_evidence
+from evmap.maps.sensed import kept_features
 from evmap.sources.config import Config
 
 if TYPE_CHECKING:
@@ -142,6 +143,7 @@ def _new_lines(
     longest = np.array([pool[group][np.argmax(length[group])] for group in merged.groups], dtype=np.intp)
     features = {name: column[longest] for name, column in store.features.items()}
     features["lsl_other_poses"] = np.array([len(np.unique(store.pose[pool[group]])) - 1 for group in merged.groups])
+    features |= kept_features(bm, longest)
     ends = np.concatenate([store.p[pool], store.q[pool]])
     space = bm.open_space_near((*ends.min(axis=0), *ends.max(axis=0)))
     base = noise_evidence(merged.p, merged.q, space, config, features)

@@ -133,6 +133,9 @@ PIPELINE_FEATURES: Mapping[str, Feature] = MappingProxyType(
         "relation": Feature(_SEGMENT_STAGES, ("outside", "partly_inside", "inside")),
         "length": Feature(_SEGMENT_STAGES, None),
         "lsl_other_poses": Feature(_SEGMENT_STAGES, None),
+        "contour_free": Feature(_SEGMENT_STAGES, ("contradicted", "clear")),
+        "lsl_persistence": Feature(_SEGMENT_STAGES, ("missed", "seen", "unobserved")),
+        "sonar_forward": Feature(_SEGMENT_STAGES, ("contradicted", "confirmed", "silent")),
         "sonar_match": Feature(("reinforcement",), ("matched", "missed", "unobserved")),
         "rcd_type": Feature(("unidentified",), ("I", "II", "III")),
     }

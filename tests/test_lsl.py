@@ -190,9 +190,10 @@ def test_sunlight_phantoms_only_in_range_and_in_sight(room: World, room_params: 
         noise = segs.truth == "noise"
         assert noise.sum() == 12  # region 0 only: region 1 is behind the closet wall
         assert (segs.source[noise] == "").all() and (segs.pose == pose_index).all()
-        assert ((segs.length[noise] >= 0.05) & (segs.length[noise] <= 0.3)).all()
+        # fitted to the stripe points on the drawn lines (0.05-0.3 m): a little shorter, ends a few mm off
+        assert ((segs.length[noise] > 0.02) & (segs.length[noise] <= 0.31)).all()
         for ends in (segs.p[noise], segs.q[noise]):
-            assert shapely.contains_xy(polygon, ends[:, 0], ends[:, 1]).all()
+            assert shapely.contains_xy(polygon.buffer(0.02), ends[:, 0], ends[:, 1]).all()
     short = room_params.model_copy(update={"max_range": 3.0})
     assert (observe_lsl(room, 0, short).truth == "noise").sum() == 0  # centroid 3.15 m away
     in_closet = World(room.scenario.model_copy(update={"robot": Robot(poses=[(-1, 0.5, 0)])}))

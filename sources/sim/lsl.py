@@ -43,10 +43,13 @@ from evmap.sources.sim.world import World, cast_rays, visible
 
 __all__ = [
     "LSL_NOISE_STREAM",
+    "PHANTOM_NOISE_STREAM",
     "SUNLIGHT_STREAM",
     "lsl_segments",
     "observe_lsl",
     "observe_lsl_all",
+    "observe_stripe",
+    "scan_segments",
     "stripe_scan",
 ]
 
@@ -55,6 +58,9 @@ LSL_NOISE_STREAM = 101
 
 SUNLIGHT_STREAM = 102
 """Stream number of the sunlight phantoms of region ``r``: ``default_rng([seed, pose_index, 102, r])``."""
+
+PHANTOM_NOISE_STREAM = 103
+"""Stream number of the range noise of the phantoms' stripe points: ``default_rng([seed, pose_index, 103])``."""
 
 
 def _wrap(angle: ArrayLike) -> NDArray[np.float64]:
@@ -137,7 +143,11 @@ def lsl_segments(
     >>> len(segs), segs.source.tolist(), segs.snapshot.tolist()
     (7, ['w', 'w', 'w', 'w', 'w', 'w', 'w'], [0, 1, 2, 3, 12, 13, 14])
     """
-    scan = stripe_scan(surfaces, pose, params, rng)
+    return scan_segments(stripe_scan(surfaces, pose, params, rng), surfaces, params, pose_index)
+
+
+def scan_segments(scan: StripeScan, surfaces: Surfaces, params: LslParams, pose_index: int = 0) -> LslSegments:
+    """The line segments fitted to a stripe scan's points, each labelled with the surface that made most of them."""
     snapshots, rays = scan.ranges.shape
     # snapshots side by side, each followed by a NaN row so that no piece spans two
     points = np.concatenate([scan.points - scan.origin, np.full((snapshots, 1, 2), np.nan)], axis=1)
@@ -163,10 +173,9 @@ def lsl_segments(
     )
 
 
-def _sunlight(world: World, pose_index: int, params: LslParams) -> LslSegments:
-    """The phantom segments of every sunlight region in range and in sight of the pose."""
-    x, y, heading = world.poses[pose_index]
-    origin = np.array([x, y])
+def _phantom_lines(world: World, pose_index: int, params: LslParams) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The phantom lines of every sunlight region in range and in sight of the pose, drawn anew for it."""
+    origin = world.poses[pose_index, :2]
     near = np.hypot(*(world.sunlight_centroids - origin).T) <= params.max_range
     seen = near & visible(world.surfaces(), origin, world.sunlight_centroids)
     ps, qs = [np.zeros((0, 2))], [np.zeros((0, 2))]
@@ -174,32 +183,95 @@ def _sunlight(world: World, pose_index: int, params: LslParams) -> LslSegments:
         p, q = world.sunlight[r].draw_lines(np.random.default_rng([world.seed, pose_index, SUNLIGHT_STREAM, r]))
         ps.append(p)
         qs.append(q)
-    p, q = np.concatenate(ps), np.concatenate(qs)
-    middle = (p + q) / 2 - origin
+    return np.concatenate(ps), np.concatenate(qs)
+
+
+def _phantom_hits(
+    scan: StripeScan, p: NDArray[np.float64], q: NDArray[np.float64], snapshot: NDArray[np.intp]
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
+    """(phantom, ray, true range) of every ray of a phantom's snapshot that meets it nearer than the real stripe."""
+    angles = scan.angles[snapshot]  # (P, R)
+    u = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+    a, e = (p - scan.origin)[:, None, :], (q - p)[:, None, :]
+    denominator = u[..., 0] * e[..., 1] - u[..., 1] * e[..., 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (a[..., 0] * e[..., 1] - a[..., 1] * e[..., 0]) / denominator  # range along the ray
+        s = (a[..., 0] * u[..., 1] - a[..., 1] * u[..., 0]) / denominator  # place along the phantom
+    behind = scan.true_ranges[snapshot]
+    ok = (np.abs(denominator) > 1e-12) & (t > 0) & (s >= 0) & (s <= 1) & ~(t >= behind)
+    phantom, ray = np.nonzero(ok)
+    return phantom, ray, t[phantom, ray]
+
+
+def observe_stripe(world: World, pose_index: int, params: LslParams) -> tuple[LslSegments, NDArray[np.float64]]:
+    """All LSL segments seen from one of the world's poses (real ones, then sunlight phantoms) and the stripe's rays.
+
+    A sunlit patch is seen by the camera like the stripe: each phantom line
+    (:class:`~evmap.sources.sim.sunlight.Sunlight`) gives a point on every ray of
+    its snapshot (the one whose centre is nearest to its midpoint's bearing) that
+    meets it nearer than the real stripe, triangulated with the same range noise,
+    and its segment is fitted to those points as a wall's is. With the scenario's
+    ``sensors.lsl.detector`` ``threshold`` the real stripe behind the patch is seen
+    too; with ``column_max`` the patch's points replace it in those columns, and
+    the real segments are fitted to what is left. A phantom met by fewer than two
+    rays keeps the line it was drawn as.
+
+    Returns the segments and the rays, (K, 2): the world bearing (rad) and the
+    measured range (m; NaN: no return) of every stripe point the camera kept.
+
+    >>> from evmap.sources.sim.scenario import default_scenario
+    >>> segs, rays = observe_stripe(World(default_scenario()), 0, LslParams())
+    >>> int((segs.truth == "noise").sum()), rays.shape[1], bool(np.isfinite(rays[:, 1]).any())
+    (28, 2, True)
+    """
+    surfaces = world.surfaces()
+    pose = world.poses[pose_index]
+    rng = np.random.default_rng([world.seed, pose_index, LSL_NOISE_STREAM])
+    scan = stripe_scan(surfaces, pose, params, rng)
+    p, q = _phantom_lines(world, pose_index, params)
+    middle = (p + q) / 2 - scan.origin
     bearing = np.arctan2(middle[:, 1], middle[:, 0])
-    centres = heading + np.radians(params.step_deg) * np.arange(params.snapshots)
-    snapshot = np.abs(_wrap(bearing[:, None] - centres)).argmin(axis=1)
-    return LslSegments(
+    snapshot = np.abs(_wrap(bearing[:, None] - scan.angles.mean(axis=1))).argmin(axis=1).astype(np.intp)
+    phantom, ray, true_range = _phantom_hits(scan, p, q, snapshot)
+    noise = np.random.default_rng([world.seed, pose_index, PHANTOM_NOISE_STREAM]).standard_normal(len(ray))
+    measured = true_range * (1 + params.range_noise * noise)
+    angle = scan.angles[snapshot[phantom], ray]
+    points = scan.origin + measured[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
+    count = np.bincount(phantom, minlength=len(p))
+    fitted = np.flatnonzero(count >= 2)
+    starts = np.cumsum(count) - count  # phantom hits come grouped by phantom (np.nonzero order)
+    fp, fq = fit_pieces(points, np.column_stack([starts[fitted], starts[fitted] + count[fitted] - 1]))
+    p, q = p.copy(), q.copy()
+    p[fitted], q[fitted] = fp, fq
+    replaced = np.zeros(scan.ranges.shape, dtype=bool)
+    if world.scenario.sensors.lsl.detector == "column_max":  # the brightest pixel of a column is the sunlit one
+        replaced[snapshot[phantom], ray] = True
+        scan = StripeScan(scan.origin, scan.angles, np.where(replaced, np.nan, scan.ranges), scan.true_ranges, scan.hit)
+    real = scan_segments(scan, surfaces, params, pose_index)
+    phantoms = LslSegments(
         p=p,
         q=q,
         truth=np.full(len(p), "noise", dtype="<U5"),
-        snapshot=snapshot.astype(np.intp),
+        snapshot=snapshot,
         source=np.full(len(p), "", dtype=str),
         pose=np.full(len(p), pose_index, dtype=np.intp),
     )
+    # a column where the camera kept a sunlit pixel and nothing else has that point only
+    kept = ~replaced
+    kept[snapshot[phantom], ray] &= ~np.isnan(scan.ranges[snapshot[phantom], ray])
+    rays = np.concatenate([np.column_stack([scan.angles[kept], scan.ranges[kept]]), np.column_stack([angle, measured])])
+    return concat_segments([real, phantoms]), rays
 
 
 def observe_lsl(world: World, pose_index: int, params: LslParams) -> LslSegments:
-    """All LSL segments seen from one of the world's poses: real ones, then sunlight phantoms.
+    """All LSL segments seen from one of the world's poses: real ones, then sunlight phantoms (:func:`observe_stripe`).
 
     >>> from evmap.sources.sim.scenario import default_scenario
     >>> segs = observe_lsl(World(default_scenario()), 0, LslParams())
-    >>> int((segs.truth == "noise").sum()), bool((segs.length[segs.truth == "noise"] <= 0.35).all())
+    >>> int((segs.truth == "noise").sum()), bool((segs.length[segs.truth == "noise"] <= 0.36).all())
     (28, True)
     """
-    rng = np.random.default_rng([world.seed, pose_index, LSL_NOISE_STREAM])
-    real = lsl_segments(world.surfaces(), world.poses[pose_index], params, rng, pose_index)
-    return concat_segments([real, _sunlight(world, pose_index, params)])
+    return observe_stripe(world, pose_index, params)[0]
 
 
 def observe_lsl_all(world: World, params: LslParams) -> LslSegments:

@@ -80,6 +80,7 @@ __all__ = [
     "MIN_SEGMENT_LENGTH",
     "Cylinder",
     "Id",
+    "LslSensor",
     "Material",
     "Robot",
     "Scenario",
@@ -163,6 +164,18 @@ class Robot(SpecModel):
     poses: list[tuple[Coordinate, Coordinate, Heading]] = Field(min_length=1, max_length=MAX_POSES)
 
 
+class LslSensor(LslParams):
+    """The scenario's ``sensors.lsl``: the LSL parameters and how the camera picks stripe points.
+
+    ``detector``: ``threshold`` keeps every pixel above the threshold, so a sunlit
+    patch adds points and the real stripe behind it is still seen; ``column_max``
+    keeps the brightest pixel of each image column, so a sunlit patch's points
+    replace the real stripe's in those columns.
+    """
+
+    detector: Literal["threshold", "column_max"] = Field("threshold", description="stripe pixels kept per column")
+
+
 class Sensors(SpecModel):
     """The ``sensors`` section: partial overrides of the run config's sensor parameters.
 
@@ -171,7 +184,7 @@ class Sensors(SpecModel):
     """
 
     sonar: SonarParams = Field(default_factory=SonarParams)
-    lsl: LslParams = Field(default_factory=LslParams)
+    lsl: LslSensor = Field(default_factory=LslSensor)
 
 
 class Scenario(SpecModel):
@@ -303,7 +316,7 @@ class Scenario(SpecModel):
         """
         merged = []
         for given, defaults in ((self.sensors.sonar, sonar_defaults), (self.sensors.lsl, lsl_defaults)):
-            overrides = given.model_dump(include=given.model_fields_set)
+            overrides = given.model_dump(include=given.model_fields_set & set(type(defaults).model_fields))
             merged.append(type(defaults).model_validate({**defaults.model_dump(), **overrides}))
         return merged[0], merged[1]
 

@@ -1,0 +1,148 @@
+"""Evidence from the contour sensor's rays: free space through a segment, and poses that should have seen it.
+
+Every stripe point is a ray, free from the sensor to the point. For a segment
+and a pose's rays that cross the segment's interior (its bearing interval from
+the pose), each ray is one of:
+
+- **ends**: its point lies on the segment (within ``tolerance`` plus three
+  range-noise stds, measured across the segment);
+- **passes**: its point lies beyond the segment: the ray went through it;
+- **short**: its point lies in front: something nearer hid the segment;
+- **none**: nothing returned although the segment is within the sensor's range.
+
+Two features come of it (:func:`ray_features`):
+
+- ``contour_free``: ``contradicted`` when rays of any pose, the segment's own
+  included, pass through it (at least ``min_rays``, and at least
+  ``pass_share`` of the rays that end on it or pass), else ``clear``. A sunlit
+  patch seen with the ``threshold`` detector has the real stripe behind it; a
+  wall has nothing behind it.
+- ``lsl_persistence``: per other pose whose rays reach the segment unhidden
+  (at least ``min_rays`` of them): seen if at least ``seen_share`` of them end on
+  it, else missed. ``seen`` if any other pose saw it, ``missed`` if one missed it
+  and none saw it, else ``unobserved``. A sunlight phantom, drawn anew per pose,
+  is missed by the poses that look at its place; a wall is seen again.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from evmap.maps.sensed import Sensed
+
+__all__ = ["RayParams", "RayTally", "ray_features", "ray_tally"]
+
+
+@dataclass(frozen=True)
+class RayParams:
+    """Tolerances of the ray tests (metres, shares)."""
+
+    tolerance: float = 0.02  # a point this close to the segment (plus 3 noise stds) ends on it
+    range_noise: float = 0.003  # the stripe's range-noise std per metre of range
+    max_range: float = 8.0  # the contour sensor's range: beyond it, no return is no evidence
+    end_margin: float = 0.03  # rays this close to an end of the segment are not counted
+    min_rays: int = 3
+    pass_share: float = 0.25
+    seen_share: float = 0.7
+
+
+@dataclass(frozen=True, eq=False)
+class RayTally:
+    """Counts of rays per segment (N,) and, for other poses, per pose (N, P).
+
+    ``ends`` and ``passes`` count every pose's rays; ``other_*`` count each other pose's.
+    """
+
+    ends: NDArray[np.intp]
+    passes: NDArray[np.intp]
+    other_ends: NDArray[np.intp]
+    other_misses: NDArray[np.intp]  # passes and no returns
+
+
+def _crossings(
+    p: NDArray[np.float64], q: NDArray[np.float64], s: Sensed, params: RayParams
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """(segment, kind) of every ray of ``s`` crossing a segment's interior; kind 0 ends, 1 passes, 2 short, 3 none."""
+    a, b = p - s.origin, q - s.origin
+    a1, a2 = np.arctan2(a[:, 1], a[:, 0]), np.arctan2(b[:, 1], b[:, 0])
+    span = (a2 - a1 + np.pi) % (2 * np.pi) - np.pi
+    lo = np.where(span >= 0, a1, a2)
+    lo = (lo + np.pi) % (2 * np.pi) - np.pi
+    bearing = np.concatenate([s.bearing, s.bearing + 2 * np.pi])
+    first = np.searchsorted(bearing, lo)
+    last = np.searchsorted(bearing, lo + np.abs(span))
+    count = np.maximum(last - first, 0)
+    seg = np.repeat(np.arange(len(p)), count)
+    ray = (np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())) % max(len(s.bearing), 1)
+    theta, r = s.bearing[ray], s.range[ray]
+    u = np.column_stack([np.cos(theta), np.sin(theta)])
+    e = b[seg] - a[seg]
+    length = np.maximum(np.hypot(*e.T), 1e-12)
+    cross = u[:, 0] * e[:, 1] - u[:, 1] * e[:, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (a[seg, 0] * e[:, 1] - a[seg, 1] * e[:, 0]) / cross  # range of the crossing along the ray
+        along = (a[seg, 0] * u[:, 1] - a[seg, 1] * u[:, 0]) / cross * length  # metres along the segment
+    sin = np.abs(cross) / length
+    inside = (np.abs(cross) > 1e-12) & (t > 0) & (along >= params.end_margin) & (along <= length - params.end_margin)
+    across = (r - t) * sin  # the point's distance beyond the segment, across it
+    tol = params.tolerance + 3 * params.range_noise * t * sin
+    kind = np.select([np.isnan(r), across > tol, across < -tol], [3, 1, 2], 0)
+    kind[np.isnan(r) & (t > params.max_range)] = 4  # out of range: not counted
+    keep = inside & (kind < 4)
+    return seg[keep], kind[keep]
+
+
+def ray_tally(
+    p: NDArray[np.float64], q: NDArray[np.float64], pose: NDArray[np.intp], poses: Sequence[Sensed], params: RayParams
+) -> RayTally:
+    """Count, for segments p-q seen from ``pose``, the rays of every sensed pose by kind (module doc).
+
+    >>> from evmap.sources.readings import SonarScan
+    >>> from evmap.sources.params import SonarParams
+    >>> sonar = SonarScan.from_readings([0.0], [1.0], SonarParams())
+    >>> bearing = np.linspace(-0.2, 0.2, 41)
+    >>> wall = Sensed(0, np.zeros(2), bearing, 2 / np.cos(bearing), sonar)  # rays ending on x = 2
+    >>> p, q = np.array([[1.0, -0.1], [2.0, -0.1]]), np.array([[1.0, 0.1], [2.0, 0.1]])
+    >>> tally = ray_tally(p, q, np.array([1, 1]), [wall], RayParams())
+    >>> tally.passes.tolist(), tally.ends.tolist(), tally.other_misses[:, 0].tolist()
+    ([13, 0], [0, 7], [13, 0])
+    """
+    n = len(p)
+    ends, passes = np.zeros(n, dtype=np.intp), np.zeros(n, dtype=np.intp)
+    other_ends = np.zeros((n, len(poses)), dtype=np.intp)
+    other_misses = np.zeros((n, len(poses)), dtype=np.intp)
+    for k, s in enumerate(poses):
+        if not len(s.bearing) or not n:
+            continue
+        seg, kind = _crossings(p, q, s, params)
+        by_kind = np.zeros((n, 4), dtype=np.intp)
+        np.add.at(by_kind, (seg, kind), 1)
+        ends += by_kind[:, 0]
+        passes += by_kind[:, 1]
+        other = pose != s.pose_index
+        other_ends[other, k] = by_kind[other, 0]
+        other_misses[other, k] = by_kind[other, 1] + by_kind[other, 3]
+    return RayTally(ends, passes, other_ends, other_misses)
+
+
+def ray_features(tally: RayTally, params: RayParams) -> dict[str, NDArray[np.str_]]:
+    """The features ``contour_free`` and ``lsl_persistence`` of the tallied segments (module doc).
+
+    >>> tally = RayTally(np.array([10, 10, 10]), np.array([8, 0, 0]), np.array([[0], [6], [0]]),
+    ...                  np.array([[0], [0], [9]]))
+    >>> {k: v.tolist() for k, v in ray_features(tally, RayParams()).items()}
+    {'contour_free': ['contradicted', 'clear', 'clear'], 'lsl_persistence': ['unobserved', 'seen', 'missed']}
+    """
+    contradicted = (tally.passes >= params.min_rays) & (tally.passes >= params.pass_share * (tally.passes + tally.ends))
+    looked = tally.other_ends + tally.other_misses
+    in_view = looked >= params.min_rays
+    saw = in_view & (tally.other_ends >= params.seen_share * looked)
+    seen, missed = saw.any(axis=1), (in_view & ~saw).any(axis=1)
+    return {
+        "contour_free": np.where(contradicted, "contradicted", "clear"),
+        "lsl_persistence": np.select([seen, missed], ["seen", "missed"], "unobserved"),
+    }

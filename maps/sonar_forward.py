@@ -1,0 +1,147 @@
+"""The sonar forward model of a segment: had it been real, would the sonar have heard it?
+
+A map line is simulated as the world's walls are (:mod:`evmap.sources.sim.sonar`):
+an acoustic mirror that answers only along its normal, and whose free ends
+diffract a weak echo. For a segment and a pose's actual scan:
+
+- **normal incidence**: when the foot of the perpendicular from the pose lies
+  inside the segment at distance ``d``, a real segment would answer at ``d``
+  over the readings within the detection half-width of the normal
+  (``directivity * sqrt(ln(detection_range / d) / 2)``, at most half the beam).
+  A reading there within ``tolerance`` of ``d``: ``confirmed``. Every reading
+  there farther than ``d + tolerance``: the sonar heard nothing where the
+  segment would have answered first: ``contradicted``. Else something nearer
+  answered first: no evidence.
+- **free ends**: an end with no other segment within ``end_clearance`` is an
+  edge that would answer with ``edge_strength``; every reading within the
+  edge's detection half-width farther than its range: ``contradicted``.
+
+Over all poses: ``confirmed`` if any pose confirms, else ``contradicted`` if any
+contradicts, else ``silent`` (no evidence either way: an oblique wall is silent).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from evmap.maps.sensed import Sensed
+from evmap.sources.readings import SonarScan
+
+__all__ = ["SonarForwardParams", "free_ends", "sonar_forward"]
+
+
+@dataclass(frozen=True)
+class SonarForwardParams:
+    """Tolerances of the forward model (metres)."""
+
+    tolerance: float = 0.05  # an echo this close to the predicted range is the segment's
+    end_margin: float = 0.02  # the foot must lie this far inside the segment
+    end_clearance: float = 0.05  # an end this close to another segment is not free
+
+
+def _half_width(scan: SonarScan, r: NDArray[np.float64], strength: float) -> NDArray[np.float64]:
+    """Detection half-width (rad) of a target of ``strength`` at range r; NaN where it is never detected."""
+    params = scan.params
+    gain = strength * params.detection_range / np.maximum(r, 1e-9)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = np.radians(params.directivity_deg) * np.sqrt(np.log(gain) / 2)
+    w = np.minimum(w, np.radians(params.beam_width_deg) / 2)
+    return np.where((gain >= 1) & (r <= params.max_range), w, np.nan)
+
+
+def _readings(
+    scan: SonarScan, bearing: NDArray[np.float64], r: NDArray[np.float64], w: NDArray[np.float64], tolerance: float
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Per target: an actual reading within ``tolerance`` of r in the window, and every reading beyond it."""
+    diff = np.abs((scan.angles[None, :] - bearing[:, None] + np.pi) % (2 * np.pi) - np.pi)
+    window = diff <= np.maximum(w, scan.step / 2)[:, None]
+    ranges = scan.ranges[None, :]
+    near = (window & (np.abs(ranges - r[:, None]) <= tolerance)).any(axis=1)
+    beyond = window.any(axis=1) & ~(window & (ranges <= r[:, None] + tolerance)).any(axis=1)
+    valid = ~np.isnan(w)
+    return near & valid, beyond & valid & (r + tolerance < scan.params.max_range)
+
+
+def free_ends(
+    p: NDArray[np.float64],
+    q: NDArray[np.float64],
+    op: NDArray[np.float64],
+    oq: NDArray[np.float64],
+    clearance: float,
+    angle_deg: float = 15.0,
+) -> NDArray[np.bool_]:
+    """(N, 2) whether each end (p, q) of each segment is free: an edge that echoes.
+
+    An end is not free when another segment (of ``op``-``oq``; the segment itself may
+    be among them) continues it (within ``clearance`` of the end and within
+    ``angle_deg`` of its direction) or meets it at a corner (an end of the other
+    within ``clearance``).
+
+    >>> p, q = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, -0.5]]), np.array([[1.0, 0.0], [1.0, 1.0], [0.5, 0.5]])
+    >>> free_ends(p, q, p, q, 0.05).tolist()
+    [[True, False], [False, True], [True, True]]
+    """
+    out = np.ones((len(p), 2), dtype=bool)
+    if not len(op) or not len(p):
+        return out
+    d = oq - op
+    length2 = np.maximum((d**2).sum(axis=1), 1e-300)
+    e = q - p
+    cos = np.abs(e @ d.T) / np.maximum(np.hypot(*e.T)[:, None] * np.sqrt(length2)[None], 1e-300)
+    parallel = cos >= np.cos(np.radians(angle_deg))
+    same = (np.abs(op[None] - p[:, None]).sum(axis=2) < 1e-12) & (np.abs(oq[None] - q[:, None]).sum(axis=2) < 1e-12)
+    for k, point in enumerate((p, q)):
+        w = point[:, None, :] - op[None]
+        t = np.clip((w * d[None]).sum(axis=2) / length2, 0, 1)
+        near = np.hypot(*(w - t[..., None] * d[None]).transpose(2, 0, 1)) <= clearance
+        corner = np.minimum(
+            np.hypot(*w.transpose(2, 0, 1)), np.hypot(*(point[:, None, :] - oq[None]).transpose(2, 0, 1))
+        )
+        out[:, k] = ~(((near & parallel) | (corner <= clearance)) & ~same).any(axis=1)
+    return out
+
+
+def sonar_forward(
+    p: NDArray[np.float64],
+    q: NDArray[np.float64],
+    free: NDArray[np.bool_],
+    poses: Sequence[Sensed],
+    params: SonarForwardParams,
+) -> NDArray[np.str_]:
+    """The feature ``sonar_forward`` of segments p-q with free ends ``free`` (N, 2) (module doc).
+
+    >>> from evmap.sources.params import SonarParams
+    >>> angles = np.radians(np.arange(-180, 180))
+    >>> scan = SonarScan.from_readings(angles, np.full(360, 3.0), SonarParams())  # a round room, r = 3
+    >>> pose = Sensed(0, np.zeros(2), np.zeros(0), np.zeros(0), scan)
+    >>> p, q = np.array([[1.0, -0.2], [3.0, -0.2], [0.5, 1.0]]), np.array([[1.0, 0.2], [3.0, 0.2], [2.5, 3.0]])
+    >>> sonar_forward(p, q, np.zeros((3, 2), bool), [pose], SonarForwardParams()).tolist()
+    ['contradicted', 'confirmed', 'silent']
+    """
+    n = len(p)
+    confirmed, contradicted = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+    e = q - p
+    length = np.maximum(np.hypot(*e.T), 1e-12)
+    for s in poses:
+        scan = s.sonar
+        edge = scan.params.edge_strength
+        o = scan.pose[:2]
+        t = ((o - p) * e).sum(axis=1) / length**2
+        foot = p + t[:, None] * e
+        d = np.hypot(*(foot - o).T)
+        inside = (t * length >= params.end_margin) & ((1 - t) * length >= params.end_margin) & (d > 1e-6)
+        w = np.where(inside, _half_width(scan, d, 1.0), np.nan)
+        bearing = np.arctan2(foot[:, 1] - o[1], foot[:, 0] - o[0])
+        near, beyond = _readings(scan, bearing, d, w, params.tolerance)
+        confirmed |= near
+        contradicted |= beyond
+        for k, end in enumerate((p, q)):
+            r = np.hypot(*(end - o).T)
+            w = np.where(free[:, k], _half_width(scan, r, edge), np.nan)
+            _, beyond = _readings(scan, np.arctan2(end[:, 1] - o[1], end[:, 0] - o[0]), r, w, params.tolerance)
+            contradicted |= beyond
+    return np.select([confirmed, contradicted], ["confirmed", "contradicted"], "silent")

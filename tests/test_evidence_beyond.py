@@ -1,0 +1,146 @@
+"""Evidence beyond the paper: phantom stripe points, the detectors, and the features of the sensed readings."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from evmap.maps.belief_map import new_map
+from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally
+from evmap.maps.observation import observe
+from evmap.maps.pipeline import fold_observation
+from evmap.maps.sensed import Sensed, kept_features
+from evmap.maps.sonar_forward import SonarForwardParams, free_ends, sonar_forward
+from evmap.sources.config import load_config
+from evmap.sources.loading import InputError
+from evmap.sources.params import LslParams, SonarParams
+from evmap.sources.readings import SonarScan
+from evmap.sources.sim.lsl import observe_stripe
+from evmap.sources.sim.scenario import LslSensor, Sensors, default_scenario, parse_scenario
+from evmap.sources.sim.world import World
+
+DEFAULT = "configs/default.yaml"
+
+# a wall at x = 3 and a sunlit patch in front of it: the real stripe is behind the phantoms
+SCENE = """
+version: 1
+name: patch
+seed: 4
+world:
+  walls: [{id: back, points: [[3, -3], [3, 3]]}]
+  sunlight: [{polygon: [[1.5, -0.6], [2.3, -0.6], [2.3, 0.6], [1.5, 0.6]], lines: 8, length: [0.15, 0.3]}]
+robot:
+  poses: [[0, 0, 0], [0.3, -1.2, 0]]
+"""
+
+
+def _world(detector: str | None = None) -> World:
+    text = SCENE if detector is None else SCENE + f"sensors: {{lsl: {{detector: {detector}}}}}\n"
+    return World(parse_scenario(text, "patch.yaml"))
+
+
+def test_detector_defaults_to_threshold_and_is_checked() -> None:
+    assert _world().scenario.sensors.lsl.detector == "threshold"
+    assert _world("column_max").scenario.sensors.lsl.detector == "column_max"
+    with pytest.raises(InputError, match="detector"):
+        _world("brightest")
+    # the detector is no LSL model parameter: the merged parameters are still LslParams
+    _, lsl = _world("column_max").scenario.sensor_params(SonarParams(), LslParams())
+    assert type(lsl) is LslParams
+
+
+def test_phantoms_have_stripe_points_and_the_detector_decides_what_is_behind() -> None:
+    params = LslParams()
+    segs_t, rays_t = observe_stripe(_world("threshold"), 0, params)
+    segs_c, rays_c = observe_stripe(_world("column_max"), 0, params)
+    noise, noise_c = segs_t.truth == "noise", segs_c.truth == "noise"
+    assert noise.sum() == noise_c.sum() == 8
+    assert np.allclose(segs_t.p[noise], segs_c.p[noise_c]) and np.allclose(segs_t.q[noise], segs_c.q[noise_c])
+    # the wall behind the patch: threshold keeps its points at the phantoms' bearings, column_max loses them
+    on_wall = np.abs(rays_t[:, 1] * np.cos(rays_t[:, 0]) - 3) < 0.05
+    on_wall_c = np.abs(rays_c[:, 1] * np.cos(rays_c[:, 0]) - 3) < 0.05
+    assert on_wall_c.sum() < on_wall.sum()
+    assert len(rays_c) < len(rays_t)  # one point per column with column_max
+    real_c = segs_c.truth == "real"
+    assert (segs_c.length[real_c].sum()) < (segs_t.length[segs_t.truth == "real"].sum())
+
+
+def test_observe_keeps_the_rays() -> None:
+    obs = observe(_world(), 0, load_config())
+    assert obs.rays is not None and obs.rays.shape[1] == 2
+    assert np.isfinite(obs.rays[:, 1]).sum() > 100
+
+
+def test_contour_free_contradicts_phantoms_with_the_stripe_behind_and_keeps_the_wall() -> None:
+    config = load_config(DEFAULT)
+    world = _world("threshold")
+    bm = new_map(config)
+    fold_observation(bm, observe(world, 0, config), config)
+    store = bm.segments
+    features = kept_features(bm, np.arange(len(store)))
+    noise = store.truth == "noise"
+    assert (features["contour_free"][noise] == "contradicted").mean() >= 0.75
+    assert (features["contour_free"][~noise] == "clear").all()
+    assert not store.eliminated[~noise].any()
+
+
+def test_a_second_pose_misses_column_max_phantoms_and_sees_the_wall_again() -> None:
+    config = load_config(DEFAULT)
+    world = _world("column_max")
+    bm = new_map(config)
+    for k in range(2):
+        fold_observation(bm, observe(world, k, config), config)
+    store = bm.segments
+    features = kept_features(bm, np.arange(len(store)))
+    noise = store.truth == "noise"
+    assert (features["lsl_persistence"][~noise] != "missed").all()
+    assert (features["lsl_persistence"][noise] == "missed").mean() >= 0.5
+    assert store.eliminated[noise].mean() >= 0.75 and not store.eliminated[~noise].any()
+
+
+def test_ray_tally_kinds() -> None:
+    sonar = SonarScan.from_readings([0.0], [1.0], SonarParams())
+    bearing = np.linspace(-0.3, 0.3, 61)
+    ranges = 2 / np.cos(bearing)
+    ranges[bearing > 0.15] = np.nan  # nothing returns on that side
+    other = Sensed(1, np.zeros(2), bearing, ranges, sonar)
+    p, q = np.array([[1.0, -0.2], [2.0, -0.2], [1.0, 0.17]]), np.array([[1.0, 0.0], [2.0, 0.0], [1.0, 0.29]])
+    tally = ray_tally(p, q, np.zeros(3, dtype=np.intp), [other], RayParams())
+    # in front of the wall: passed; on the wall: ends; where nothing returned: missed
+    assert tally.passes[0] > 0 and tally.ends[0] == 0
+    assert tally.ends[1] > 0 and tally.passes[1] == 0
+    assert tally.other_misses[2, 0] > 0 and tally.other_ends[2, 0] == 0
+    features = ray_features(tally, RayParams())
+    assert features["lsl_persistence"].tolist() == ["missed", "seen", "missed"]
+    assert features["contour_free"].tolist() == ["contradicted", "clear", "clear"]
+
+
+def test_sonar_forward_edges_and_oblique_walls() -> None:
+    angles = np.radians(np.arange(-180, 180))
+    scan = SonarScan.from_readings(angles, np.full(360, 4.0), SonarParams())
+    pose = Sensed(0, np.zeros(2), np.zeros(0), np.zeros(0), scan)
+    # an oblique segment with a free end at 1.5 m: its edge would have answered; at 3.5 m it would not
+    p, q = np.array([[1.5, 0.0], [3.5, 0.0]]), np.array([[1.7, 0.3], [3.7, 0.3]])
+    free = free_ends(p, q, p, q, 0.05)
+    assert free.all()
+    assert sonar_forward(p, q, free, [pose], SonarForwardParams()).tolist() == ["contradicted", "silent"]
+    assert sonar_forward(p, q, ~free, [pose], SonarForwardParams()).tolist() == ["silent", "silent"]
+
+
+def test_default_config_keeps_the_corridor_walls_and_removes_its_phantoms() -> None:
+    config = load_config(DEFAULT)
+    world = World(default_scenario())
+    bm = new_map(config)
+    fold_observation(bm, observe(world, 0, config), config)
+    store = bm.segments
+    noise = store.truth == "noise"
+    assert noise.sum() == 28
+    assert not store.eliminated[~noise].any()
+    # from one pose, the phantoms in front of the windows have no wall behind them and no edge in sonar range
+    assert store.eliminated[noise].mean() >= 0.5
+
+
+def test_column_max_scenario_sensors_round_trip() -> None:
+    scenario = default_scenario().model_copy(update={"sensors": Sensors(lsl=LslSensor(detector="column_max"))})
+    segs, _ = observe_stripe(World(scenario), 0, LslParams())
+    assert (segs.truth == "noise").sum() == 28
