@@ -216,11 +216,15 @@ def test_unknown_space_blocks_a_path_unless_told_free():
 
 def test_queries_without_obstacles_and_on_a_freshly_loaded_map(tmp_path):
     bm = BeliefMap(FRAME)
-    assert bm.nearest_obstacle((3, 4), 0.0) == (math.inf, None) and bm.is_segment_clear((0, 0), (1, 1), 1e9, unknown="free")
+    assert bm.nearest_obstacle((3, 4), 0.0) == (math.inf, None) and bm.is_segment_clear(
+        (0, 0), (1, 1), 1e9, unknown="free"
+    )
     for i in range(50):  # a row of corners, none an obstacle, and one faint target far off
         bm.add_point(f"C{i}", (i * 3.0, 0.0), "corner", mass(0.9))
     bm.add_point("U1", (500.0, 500.0), "unidentified", mass(0.1))
-    assert bm.nearest_obstacle((0, 0)) == (math.inf, None) and bm.is_segment_clear((0, 0), (150, 0), 1e9, unknown="free")
+    assert bm.nearest_obstacle((0, 0)) == (math.inf, None) and bm.is_segment_clear(
+        (0, 0), (150, 0), 1e9, unknown="free"
+    )
     assert bm.nearest_obstacle((0, 0), 0.1) == (pytest.approx(math.hypot(500, 500)), "U1")
     assert not bm.is_segment_clear((0, 0), (150, 0), 1e9, 0.1, unknown="free")
     bm.save(tmp_path / "map.json")

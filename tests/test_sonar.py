@@ -214,7 +214,7 @@ def test_a_reading_in_millimetres_is_refused_not_clipped():
 
 
 def test_lsl_segments_refuse_non_finite_far_and_unknown_truth():
-    one = dict(snapshot=np.zeros(1, int), source=np.array([""]), pose=np.zeros(1, int))
+    one = {"snapshot": np.zeros(1, int), "source": np.array([""]), "pose": np.zeros(1, int)}
     with pytest.raises(ScanError, match=r"p\[0\].*finite"):
         LslSegments(np.array([[np.nan, 0.0]]), np.array([[1.0, 0.0]]), np.array(["real"]), **one)
     with pytest.raises(ScanError, match=r"q\[0\].*beyond 1e\+07 m"):
