@@ -111,7 +111,7 @@ def test_empty_and_single_reading_scans():
     one = extract_rcds(SonarScan.from_readings([0.3], [2.0], SonarParams()), PARAMS, primitive=True)
     assert one.type.tolist() == [1] and one.count.tolist() == [1]
     assert np.degrees(one.width[0]) == pytest.approx(SonarParams().step_deg)
-    far = extract_rcds(SonarScan.from_readings([0.3], [99.0], SonarParams()), PARAMS, primitive=True)
+    far = extract_rcds(SonarScan.from_readings([0.3], [12.0], SonarParams()), PARAMS, primitive=True)
     assert far.type.tolist() == [4] and far.range.tolist() == [10.0]
 
 
