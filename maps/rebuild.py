@@ -195,13 +195,15 @@ def _attach(
     fits = np.array([line.fit for line in lines]).reshape(-1, 2, 2)
     corners = find_corners(fits[:, 0], fits[:, 1], config.corners, viewpoint)
     end_point = {(i, e): line.fixed[e] for i, line in enumerate(lines) for e in (0, 1) if line.fixed[e] is not None}
+    removed_xy = np.array([pxy for pxy, _ in removed], dtype=float).reshape(-1, 2)
     for k, ends in enumerate(corners.ends):
         pairs = [tuple(pair) for pair in ends.tolist()]
         if any(pair in end_point for pair in pairs):
             continue  # an end already on a point outside the change stays there
         cid = bm.new_id("C")
         xy = corners.xy[k]
-        near = [h for pxy, h in removed if np.hypot(*(np.asarray(pxy) - xy)) <= config.corners.distance]
+        close = np.hypot(*(removed_xy - xy).T) <= config.corners.distance
+        near = [removed[j][1] for j in np.flatnonzero(close).tolist()]
         history = _carried_records(near)
         reinforced = any(r["category"] == "matched" for r in history)
         bm.add_point(

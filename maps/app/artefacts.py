@@ -46,7 +46,7 @@ def write_artefacts(
         (staging / "report.json").write_text(json.dumps(summary, indent=2) + "\n")
         (staging / "segments.json").write_text(json.dumps(segment_records(run)) + "\n")
         run.map.save(staging / "map.json")
-        if run.world is None:  # a map of measured data: the ROS map_server pair too
+        if run.log is not None:  # a map of a robot log: the ROS map_server pair too
             run.map.save_ros_map(staging / "map")
         if figures:
             write_figures(run, staging, figure_format)

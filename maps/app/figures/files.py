@@ -8,7 +8,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from evmap.maps.app.figures.runs import world
 from evmap.maps.app.run import Run
 
 __all__ = ["FORMATS", "figure_name", "write_figures"]
@@ -64,7 +63,7 @@ def write_figures(run: Run, directory: str | Path, fmt: str = "png", *, dpi: int
     directory = Path(directory)
     paths = []
     for name, make in FIGURE_FILES.items():
-        if make in SCAN_FIGURES and world(run) is None:
+        if make in SCAN_FIGURES and run.log is not None:
             continue  # a log's scans are thousands: its map figures show them all, no figure per scan
         for pose in range(len(run.observations)) if make in SCAN_FIGURES else [None]:
             fig = make(run) if pose is None else make(run, pose)
