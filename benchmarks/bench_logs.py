@@ -1,46 +1,76 @@
-"""Laser line extraction on whole CARMEN logs: PLE coverage and error, and time per scan.
+"""Whole robot logs into one belief map: time per update, its growth, peak memory, and the laser's line fit.
 
 Usage: ``python benchmarks/bench_logs.py [LOG ...]`` (default: the Intel and
 Freiburg 079 corrected logs in ``/work/shared/data/carmen``). Every scan of each
 log is read, its segments extracted with the default
-:class:`~evmap.sources.laser.LaserParams` and scored by
-:mod:`evmap.sources.line_fit`. Targets: mean coverage >= 0.95 at a median
-per-scan error <= 2 cm on both logs.
+:class:`~evmap.sources.laser.LaserParams`, scored by :mod:`evmap.sources.line_fit`
+and folded into one map (:func:`evmap.maps.app.log_run.run_log`, the
+computation of ``evmap log``). Printed per log: scans, median update (extraction
+and update, ms), the ratio of the medians of the last and the first tenth of
+the log, peak resident memory (MB, of the whole process so far), total seconds,
+mean coverage and median error. Targets: median <= 30 ms, ratio <= 1.5, peak
+< 1 GB, Intel under 60 s; coverage >= 0.95 at an error <= 2 cm on both logs.
 """
 
 from __future__ import annotations
 
+import resource
 import sys
 import time
+from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import TypeVar
 
-from evmap.sources.laser import LaserParams, laser_segments
-from evmap.sources.line_fit import log_fit, scan_fit
-from evmap.sources.logs.carmen import read_carmen
+import numpy as np
+
+from evmap.maps.app.log_run import run_log
+from evmap.sources.config import load_config
 
 DATA = Path("/work/shared/data/carmen")
+T = TypeVar("T")
 LOGS = [DATA / "intel-corrected.log.gz", DATA / "freiburg-079-corrected.log.gz"]
 
 
-def bench(path: Path, params: LaserParams) -> tuple[int, float, float, float]:
-    """Scans, mean coverage, median error (m) and extraction time per scan (s) of one log."""
-    fits, seconds = [], 0.0
-    for record in read_carmen(path):
-        start = time.perf_counter()
-        segs = laser_segments(record.scan, params, record.index)
-        seconds += time.perf_counter() - start
-        fits.append(scan_fit(record.scan, segs.segments.p, segs.segments.q))
-    coverage, error = log_fit(fits)
-    return len(fits), coverage, error, seconds / max(len(fits), 1)
+def bench(path: Path) -> dict[str, float]:
+    """The figures of one log (see the module doc)."""
+    times: list[float] = []
+    start = time.perf_counter()
+    run = run_log(path, load_config(), progress=lambda records: _timed(records, times))
+    total = time.perf_counter() - start
+    per_scan = np.diff(np.array(times))
+    tenth = max(1, len(per_scan) // 10)
+    return {
+        "scans": run.log.scans,
+        "median_ms": 1000 * run.log.per_scan_median,
+        "ratio": float(np.median(per_scan[-tenth:]) / np.median(per_scan[:tenth])),
+        "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "total_s": total,
+        "coverage": run.log.coverage_mean,
+        "error_cm": 100 * run.log.rms_error_median,
+        "lines": run.map.graph.number_of_edges(),
+    }
+
+
+def _timed(records: Iterable[T], times: list[float]) -> Iterator[T]:
+    """The records handed on, the clock read at each (and at the end) into ``times``."""
+    for record in records:
+        times.append(time.perf_counter())
+        yield record
+    times.append(time.perf_counter())
 
 
 def main(paths: list[str]) -> None:
-    params = LaserParams()
-    print(f"params: {params.model_dump()}")
-    print(f"{'log':32} {'scans':>6} {'coverage':>9} {'error cm':>9} {'ms/scan':>8}")
+    print(
+        f"{'log':32} {'scans':>6} {'ms/upd':>7} {'last/1st':>8} {'peak MB':>8} {'total s':>8} {'cover':>6} "
+        f"{'err cm':>6} {'lines':>6}"
+    )
     for path in map(Path, paths or LOGS):
-        scans, coverage, error, per_scan = bench(path, params)
-        print(f"{path.name:32} {scans:6d} {coverage:9.3f} {100 * error:9.2f} {1000 * per_scan:8.2f}")
+        f = bench(path)
+        print(
+            f"{path.name:32} {f['scans']:6d} {f['median_ms']:7.1f} {f['ratio']:8.2f} {f['peak_mb']:8.0f} "
+            f"{f['total_s']:8.1f} {f['coverage']:6.3f} {f['error_cm']:6.2f} {f['lines']:6d}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

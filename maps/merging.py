@@ -106,13 +106,18 @@ def check_segments(p: ArrayLike, q: ArrayLike) -> tuple[NDArray[np.float64], NDA
     return p, q
 
 
-def merge_segments(p: ArrayLike, q: ArrayLike, params: MergeParams | None = None) -> Merged:
+def merge_segments(
+    p: ArrayLike, q: ArrayLike, params: MergeParams | None = None, weights: ArrayLike | None = None
+) -> Merged:
     """Merge collinear segments until nothing merges (see the module docstring).
 
     Parameters
     ----------
     p, q : (N, 2) end points of the segments (metres).
     params : the tolerances; ``MergeParams()`` (5 cm, 10 deg, 5 cm) if omitted.
+    weights : (N,) how many observations each segment stands for (default 1 each):
+        in the refit a segment weighs its length times its weight (a line's
+        consolidated support, seen from many poses, weighs as they all would).
 
     Returns
     -------
@@ -131,17 +136,18 @@ def merge_segments(p: ArrayLike, q: ArrayLike, params: MergeParams | None = None
     """
     params = MergeParams() if params is None else params
     p, q = check_segments(p, q)
+    w = np.ones(len(p)) if weights is None else np.asarray(weights, dtype=float).reshape(len(p))
     labels = np.arange(len(p))  # current line of each input segment
     lp, lq = p, q
     while len(p):
         a, b, cost = related_pairs(lp, lq, params)
         if a.size == 0:
             break
-        new = _group_lines(p, q, labels, len(lp), a, b, cost, params)
+        new = _group_lines(p, q, w, labels, len(lp), a, b, cost, params)
         if new.max() + 1 == len(lp):
             break
         labels = new[labels]
-        lp, lq = _refit(p, q, labels, params)
+        lp, lq = _refit(p, q, w, labels, params)
     # Number the lines in the order of their smallest member.
     _, first = np.unique(labels, return_index=True)
     order = np.argsort(first)
@@ -221,6 +227,7 @@ def _relation(
 def _group_lines(
     p: NDArray[np.float64],
     q: NDArray[np.float64],
+    w: NDArray[np.float64],
     labels: NDArray[np.intp],
     m: int,
     a: NDArray[np.intp],
@@ -232,7 +239,7 @@ def _group_lines(
     graph = coo_array((np.ones(a.size), (a, b)), shape=(m, m))
     _, comp = connected_components(graph, directed=False)
     group = comp[labels]  # proposed group of each input
-    _, _, fits = _fit(p, q, group, comp.max() + 1, params)
+    _, _, fits = _fit(p, q, w, group, comp.max() + 1, params)
     bad = np.flatnonzero(~fits)
     if bad.size == 0:
         return comp
@@ -243,7 +250,7 @@ def _group_lines(
     bounds = np.searchsorted(group[idx], np.r_[bad, bad[-1] + 1])
     for c, lo, hi in zip(bad, bounds[:-1], bounds[1:]):
         sel = (comp[a] == c) & (comp[b] == c)
-        for root_set in _kruskal(p, q, idx[lo:hi], labels[idx[lo:hi]], a[sel], b[sel], cost[sel], params):
+        for root_set in _kruskal(p, q, w, idx[lo:hi], labels[idx[lo:hi]], a[sel], b[sel], cost[sel], params):
             comp[root_set] = next_id
             next_id += 1
     _, comp = np.unique(comp, return_inverse=True)
@@ -253,6 +260,7 @@ def _group_lines(
 def _kruskal(
     p: NDArray[np.float64],
     q: NDArray[np.float64],
+    w: NDArray[np.float64],
     idx: NDArray[np.intp],
     line: NDArray[np.intp],
     a: NDArray[np.intp],
@@ -271,6 +279,7 @@ def _kruskal(
     pv, qv = p[idx] - origin, q[idx] - origin
     d, mid = qv - pv, (pv + qv) / 2
     length = np.hypot(d[:, 0], d[:, 1])
+    weight = length * w[idx]
     terms = (
         np.ones_like(length),
         mid[:, 0],
@@ -279,7 +288,7 @@ def _kruskal(
         mid[:, 1] ** 2 + d[:, 1] ** 2 / 12,
         mid[:, 0] * mid[:, 1] + d[:, 0] * d[:, 1] / 12,
     )
-    moments = np.stack([np.bincount(owner, length * t, minlength=nodes.size) for t in terms], axis=1)
+    moments = np.stack([np.bincount(owner, weight * t, minlength=nodes.size) for t in terms], axis=1)
     rows = np.column_stack([pv, qv, length]).tolist()
     bounds = np.r_[0, np.cumsum(np.bincount(owner, minlength=nodes.size))].tolist()
     sets = {  # root -> (moments, rows (px, py, qx, qy, length) of its inputs, its current lines)
@@ -323,6 +332,7 @@ def _fits_one_line(moments: list[float], rows: list[list[float]], cos_tol: float
 def _fit(
     p: NDArray[np.float64],
     q: NDArray[np.float64],
+    weights: NDArray[np.float64],
     g: NDArray[np.intp],
     k: int,
     params: MergeParams,
@@ -334,13 +344,14 @@ def _fit(
     """
     d = q - p
     length = np.hypot(d[:, 0], d[:, 1])
+    weight = length * weights
     mid = (p + q) / 2
-    w = np.bincount(g, length, minlength=k)
-    c = np.stack([np.bincount(g, length * mid[:, i], minlength=k) for i in (0, 1)], axis=1) / w[:, None]
+    w = np.bincount(g, weight, minlength=k)
+    c = np.stack([np.bincount(g, weight * mid[:, i], minlength=k) for i in (0, 1)], axis=1) / w[:, None]
     rel = mid - c[g]
     # S = sum(l ((m - c)(m - c)^T + d d^T / 12)): second moment of a uniform segment.
     sxx, syy, sxy = (
-        np.bincount(g, length * (rel[:, i] * rel[:, j] + d[:, i] * d[:, j] / 12), minlength=k)
+        np.bincount(g, weight * (rel[:, i] * rel[:, j] + d[:, i] * d[:, j] / 12), minlength=k)
         for i, j in ((0, 0), (1, 1), (0, 1))
     )
     phi = 0.5 * np.arctan2(2 * sxy, sxx - syy)
@@ -354,11 +365,15 @@ def _fit(
 
 
 def _refit(
-    p: NDArray[np.float64], q: NDArray[np.float64], labels: NDArray[np.intp], params: MergeParams
+    p: NDArray[np.float64],
+    q: NDArray[np.float64],
+    w: NDArray[np.float64],
+    labels: NDArray[np.intp],
+    params: MergeParams,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """End points of the line of each label: refitted groups, singletons unchanged."""
     k = labels.max() + 1
-    c, u, _ = _fit(p, q, labels, k, params)
+    c, u, _ = _fit(p, q, w, labels, k, params)
     d = q - p
     length = np.hypot(d[:, 0], d[:, 1])
     by_label = np.lexsort((-length, labels))

@@ -1,9 +1,13 @@
-"""What the robot senses from one pose: a rotational sonar scan and the LSL segments.
+"""What the robot senses from one pose: a rotational sonar scan (if any) and the contour segments.
 
 An :class:`Observation` is the input of :meth:`evmap.maps.BeliefMap.update`. It comes
-from the simulated world (:func:`observe`) or from real sensors: build a
-:class:`~evmap.sources.readings.SonarScan` with :meth:`~evmap.sources.readings.SonarScan.from_readings`
-and an :class:`~evmap.sources.readings.LslSegments` from the extracted line segments.
+from the simulated world (:func:`observe`), from a robot log (:func:`observation_from_log`:
+the laser's segments as the contour, the log's sonar readings where it has them), or
+from other sensors: build a :class:`~evmap.sources.readings.SonarScan` with
+:meth:`~evmap.sources.readings.SonarScan.from_readings` and an
+:class:`~evmap.sources.readings.LslSegments` from the extracted line segments.
+Without a sonar scan the pipeline skips its sonar stages (open space, simulated
+sonar, matching, reinforcement, unidentified objects).
 """
 
 from __future__ import annotations
@@ -16,12 +20,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from evmap.maps.noise import COMPUTED
 from evmap.sources.config import Config
+from evmap.sources.laser import LaserParams, Rays, laser_segments
+from evmap.sources.logs.scan import LogRecord, RangeReadings
+from evmap.sources.params import SonarParams
 from evmap.sources.readings import LslSegments, SonarScan
 from evmap.sources.sim.lsl import observe_stripe
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World
 
-__all__ = ["SONAR_STREAM", "Observation", "observe"]
+__all__ = ["SONAR_STREAM", "Observation", "observation_from_log", "observe", "sonar_from_readings"]
 
 SONAR_STREAM = 1
 """Stream number of the sonar range noise: ``default_rng([seed, pose_index, 1])``."""
@@ -29,31 +36,45 @@ SONAR_STREAM = 1
 
 @dataclass(frozen=True, eq=False)
 class Observation:
-    """One pose's sensing: the sonar scan (which holds the pose) and the LSL segments.
+    """One pose's sensing: the sonar scan (which holds the pose) and the contour (LSL or laser) segments.
 
     Attributes
     ----------
     pose_index : index of the pose in the run (0, 1, ...); evidence records name it.
-    sonar : the actual rotational sonar scan.
-    lsl : the LSL line segments seen from the same pose.
+    sonar : the actual rotational sonar scan; None if the robot had no sonar
+        there (then ``robot_pose`` gives the pose).
+    lsl : the contour line segments seen from the same pose (LSL or laser).
     features : further per-segment features for the config's noise-elimination
         sources, name -> one value per LSL segment (a new sensor's reading of
         each segment, say ``{"ir_return": [...]}``); the pipeline computes
         :data:`evmap.maps.noise.COMPUTED` itself.
     rays : (K, 2) the contour sensor's rays, if it gives them: world bearing (rad)
-        from the pose and measured range (m, NaN for no return) of every stripe
-        point; the free space of the contour and its evidence are made from them.
+        from the pose and measured range (m, NaN for no return) of every ray;
+        the free space of the contour and its evidence are made from them.
+    robot_pose : (3,) x, y (m), heading (rad) of the robot; needed without a
+        sonar scan, else it must be the scan's pose.
     """
 
     pose_index: int
-    sonar: SonarScan
+    sonar: SonarScan | None
     lsl: LslSegments
     features: Mapping[str, ArrayLike] = field(default_factory=dict)
     rays: NDArray[np.float64] | None = None
+    robot_pose: ArrayLike | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.pose_index, int | np.integer) or self.pose_index < 0:
             raise ValueError(f"pose_index must be an integer >= 0, got {self.pose_index!r}")
+        if self.robot_pose is None:
+            if self.sonar is None:
+                raise ValueError("an observation without a sonar scan needs robot_pose")
+        else:
+            pose = np.array(self.robot_pose, dtype=float)
+            if pose.shape != (3,) or not np.isfinite(pose).all():
+                raise ValueError(f"robot_pose must be three finite numbers (x, y, heading), got {self.robot_pose!r}")
+            if self.sonar is not None and not np.array_equal(pose, self.sonar.pose):
+                raise ValueError(f"robot_pose {pose.tolist()} is not the sonar scan's pose {self.sonar.pose.tolist()}")
+            object.__setattr__(self, "robot_pose", pose)
         for name, values in self.features.items():
             if name in COMPUTED:
                 raise ValueError(f"feature {name!r} is computed by the pipeline; an observation cannot bring it")
@@ -65,7 +86,7 @@ class Observation:
     @property
     def pose(self) -> NDArray[np.float64]:
         """(3,) x, y (m) and heading (rad) of the robot."""
-        return self.sonar.pose
+        return self.sonar.pose if self.sonar is not None else self.robot_pose
 
 
 def observe(world: World, pose_index: int, config: Config) -> Observation:
@@ -85,3 +106,60 @@ def observe(world: World, pose_index: int, config: Config) -> Observation:
     scan = simulate_scan(world.surfaces(), world.poses[pose_index], sonar, rng=rng)
     segments, rays = observe_stripe(world, pose_index, lsl)
     return Observation(pose_index, scan, segments, rays=rays)
+
+
+def observation_from_log(
+    record: LogRecord,
+    config: Config,
+    pose_index: int,
+    laser: LaserParams | None = None,
+    sonar: RangeReadings | None = None,
+) -> Observation:
+    """One log record as an observation: the laser's segments and rays as the contour.
+
+    The sonar scan is made from ``sonar`` (the record's readings, if they are new
+    since the last scan used; None for none: the sonar stages are skipped), with
+    the config's sonar model (:func:`sonar_from_readings`).
+
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.logs.scan import LaserScan
+    >>> angles = np.radians(np.arange(-45.0, 46.0))
+    >>> scan = LaserScan(0.0, np.zeros(3), angles, 2.0 / np.cos(angles), 80.0)
+    >>> obs = observation_from_log(LogRecord(7, scan, np.zeros(3)), load_config(), 3)
+    >>> obs.pose_index, len(obs.lsl), obs.sonar is None, obs.lsl.truth.tolist(), int((~np.isnan(obs.rays[:, 1])).sum())
+    (3, 1, True, [''], 91)
+    """
+    segs = laser_segments(record.scan, laser or LaserParams(), pose_index)
+    pose = np.asarray(record.robot_pose, dtype=float)
+    scan = None if sonar is None else sonar_from_readings(sonar, pose, config.sensors.sonar)
+    return Observation(pose_index, scan, segs.segments, rays=rays_from(segs.rays, pose), robot_pose=pose)
+
+
+def rays_from(rays: Rays, pose: ArrayLike) -> NDArray[np.float64]:
+    """The laser's rays as :attr:`Observation.rays`: bearing and range of each end from the robot's position,
+    NaN range where the ray returned nothing."""
+    rel = rays.ends - np.asarray(pose, dtype=float)[:2]
+    return np.column_stack([np.arctan2(rel[:, 1], rel[:, 0]), np.where(rays.returned, np.hypot(*rel.T), np.nan)])
+
+
+def sonar_from_readings(readings: RangeReadings, robot_pose: ArrayLike, params: SonarParams) -> SonarScan:
+    """A log's sonar readings as a scan from the robot's centre: each echo's world point seen from there.
+
+    Beams without an echo read the sonar model's maximum range (no echo); beams of
+    the same bearing from the centre keep the first.
+
+    >>> ring = RangeReadings(0.0, np.array([[0.1, 0, 0], [0, 0.1, np.pi / 2]]), np.array([1.0, np.nan]), 5.0,
+    ...                      np.full(2, 0.4))
+    >>> scan = sonar_from_readings(ring, [0.0, 0.0, 0.0], SonarParams())
+    >>> scan.angles.round(6).tolist(), scan.ranges.round(6).tolist(), scan.order.tolist()
+    ([0.0, 1.570796], [1.1, 10.0], [-1, 0])
+    """
+    pose = np.asarray(robot_pose, dtype=float)
+    origins, bearings = readings.in_world(pose)
+    r = np.where(np.isnan(readings.ranges), readings.max_range, readings.ranges)
+    points = origins + r[:, None] * np.column_stack([np.cos(bearings), np.sin(bearings)])
+    rel = points - pose[:2]
+    angles = np.mod(np.arctan2(rel[:, 1], rel[:, 0]) - pose[2] + np.pi, 2 * np.pi) - np.pi + pose[2]
+    ranges = np.where(np.isnan(readings.ranges), params.max_range, np.hypot(*rel.T))
+    angles, first = np.unique(angles, return_index=True)
+    return SonarScan.from_readings(angles, ranges[first], params, pose=pose)

@@ -14,6 +14,10 @@
    (:mod:`evmap.maps.reinforcement`), and unidentified objects from the
    unmatched actual RCDs (:mod:`evmap.maps.unidentified`).
 
+An observation without a sonar scan (a robot log with a laser only) skips the
+sonar stages 1 and 5-7: no open space, nothing simulated, matched, reinforced
+or unidentified; its outcome says so (``sonar`` None).
+
 Only the part of the map near the new observation is rebuilt, so an update
 costs what the observation touches. Rebuilding the whole map from its stored
 segments gives the same lines.
@@ -43,7 +47,7 @@ from evmap.sources.readings import SonarScan
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["PoseOutcome", "check_observation", "fold_observation"]
+__all__ = ["PoseOutcome", "check_observation", "fold_observation", "touched_segments"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -55,11 +59,12 @@ class PoseOutcome:
     pose_index : the observation's pose.
     segments : ids (rows of the map's segment store) of the observation's LSL segments.
     primitive : the primitive RCDs of the actual scan (they made the open space).
-    open_space : this pose's open space.
+    open_space : this pose's open space (empty without sonar).
     actual : the actual RCDs at least ``rcd.min_width_deg`` wide.
-    predicted_scan : the scan simulated from the map.
+    predicted_scan : the scan simulated from the map; None without sonar.
     predicted : its RCDs at least ``rcd.min_width_deg`` wide.
     matched : (actual index, predicted index) pairs.
+    Without a sonar scan the RCDs and pairs are empty.
     categories : map object id -> ``matched`` or ``missed`` at this pose.
     unidentified : ids of the unidentified objects this pose added or reinforced.
     """
@@ -69,7 +74,7 @@ class PoseOutcome:
     primitive: Rcds
     open_space: shapely.Geometry
     actual: Rcds
-    predicted_scan: SonarScan
+    predicted_scan: SonarScan | None
     predicted: Rcds
     matched: tuple[NDArray[np.intp], NDArray[np.intp]]
     categories: dict[str, str] = field(default_factory=dict)
@@ -85,24 +90,26 @@ def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOut
     pose = obs.pose
 
     # 1. open space of this pose, added to the map's
-    primitive = extract_rcds(obs.sonar, config.rcd, primitive=True)
-    space = open_space(obs.sonar, primitive, config.open_space)
-    bm.add_open_space(space)
+    if obs.sonar is not None:
+        primitive = extract_rcds(obs.sonar, config.rcd, primitive=True)
+        space = open_space(obs.sonar, primitive, config.open_space)
+        bm.add_open_space(space)
+    else:
+        primitive, space = _no_rcds(), shapely.MultiPolygon()
 
     # 2. noise elimination of the new segments and of the stored ones the new open space reaches
     new = store.append(obs.lsl.p, obs.lsl.q, np.full(len(obs.lsl), obs.pose_index), obs.lsl.truth, obs.features)
-    margin = config.merge.distance + config.merge.gap
-    bounds = np.array(shapely.total_bounds(space)) if not space.is_empty else np.array([*pose[:2], *pose[:2]])
-    if len(new):
-        ends = np.concatenate([store.p[new], store.q[new]])
-        bounds = np.r_[np.minimum(bounds[:2], ends.min(axis=0)), np.maximum(bounds[2:], ends.max(axis=0))]
-    touched = store.near(tuple(bounds + np.array([-margin, -margin, margin, margin])))
+    touched = touched_segments(bm, new, space, config)
     judge(bm, touched, config)
 
     # 3.-4. merge and find corners near the change
     touched_lines = rebuild(bm, touched, config, pose[:2])
 
     # 5.-7. simulated sonar, matching, reinforcement, unidentified objects
+    if obs.sonar is None:
+        refresh_points(bm, touched_lines, config)
+        none = np.zeros(0, dtype=np.intp)
+        return PoseOutcome(obs.pose_index, new, primitive, space, primitive, None, primitive, (none, none))
     check = check_sonar(bm, obs.sonar, config)
     categories = reinforce(bm, check, obs.pose_index, config)
     unidentified = add_unidentified(bm, check, pose, obs.pose_index, config)
@@ -120,6 +127,24 @@ def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOut
         categories,
         unidentified,
     )
+
+
+def touched_segments(bm: BeliefMap, new: NDArray[np.intp], space: shapely.Geometry, config: Config) -> NDArray[np.intp]:
+    """The stored segments an update must judge again: near a new segment, or where the new open space is.
+
+    A segment's verdict changes only when another pose's segment comes to lie on
+    it (``lsl_other_poses``) or new open space reaches it, so the rows whose boxes
+    meet a new segment's box (grown by the merging reach) or a piece of the new
+    open space's box are all: what the observation touches, at any map size.
+    """
+    store = bm.segments
+    margin = config.merge.distance + config.merge.gap
+    boxes = [np.hstack([np.minimum(store.p[new], store.q[new]), np.maximum(store.p[new], store.q[new])])]
+    if not space.is_empty:
+        boxes.append(shapely.bounds(shapely.get_parts(space)))
+    grown = np.concatenate(boxes).reshape(-1, 4) + np.array([-margin, -margin, margin, margin])
+    found = [store.near(tuple(box)) for box in grown.tolist()]
+    return np.unique(np.concatenate([new, *found])) if found else new
 
 
 def check_observation(bm: BeliefMap, obs: Observation, config: Config) -> None:
@@ -144,3 +169,11 @@ def check_observation(bm: BeliefMap, obs: Observation, config: Config) -> None:
     stored = set(bm.segments.features)
     if len(bm.segments) and brought != stored:
         raise ValueError(f"the observation brings features {sorted(brought)}, the map's segments have {sorted(stored)}")
+
+
+def _no_rcds() -> Rcds:
+    """The RCDs of no scan."""
+    i, f = np.zeros(0, dtype=np.intp), np.zeros(0)
+    return Rcds(
+        i, i, i, f, f, f, f, np.zeros(0, dtype=np.int_), f, f, np.zeros(0, dtype=str), np.zeros(0, dtype=np.int_)
+    )

@@ -6,7 +6,11 @@ meeting a dissolved line, or a new line near its ends, are detached and
 re-attached with the new ones, so that their corners (:mod:`evmap.maps.corners`)
 are found anew. A merged line's mass is recomputed from its merged length and
 relation (its pieces are not independent evidence); the sonar evidence of the
-lines it replaces carries over, at most one record per pose and source.
+lines it replaces carries over, at most one record per pose and source. A line
+seen from more than :data:`~evmap.maps.segments.CONSOLIDATE_POSES` poses is
+consolidated into its merged support (:meth:`~evmap.maps.segments.SegmentStore.consolidate`),
+which stands for them in later rebuilds: a rebuild merges what is near the
+change, a few rows per line, however long the line has been seen.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from evidential import MassFunction, combine
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import Merged, merge_segments
 from evmap.maps.noise import noise_evidence
+from evmap.maps.segments import CONSOLIDATE_POSES, SegmentStore
 from evmap.maps.sensed import kept_features
 from evmap.sources.config import Config
 
@@ -58,7 +63,7 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     members = [np.asarray(g.edges[ends]["members"], dtype=np.intp) for ends in dissolved.values()]
     pool = np.union1d(touched, np.concatenate([np.zeros(0, dtype=np.intp), *members]))
     pool = pool[~store.eliminated[pool]]
-    merged = merge_segments(store.p[pool], store.q[pool], config.merge)
+    merged = merge_segments(store.p[pool], store.q[pool], config.merge, store.seen[pool])
 
     affected = _affected_points(bm, dissolved, merged, config)
     histories = {lid: g.edges[ends]["history"] for lid, ends in dissolved.items()}
@@ -142,7 +147,7 @@ def _new_lines(
     length = np.hypot(*(store.q[pool] - store.p[pool]).T)
     longest = np.array([pool[group][np.argmax(length[group])] for group in merged.groups], dtype=np.intp)
     features = {name: column[longest] for name, column in store.features.items()}
-    features["lsl_other_poses"] = np.array([len(np.unique(store.pose[pool[group]])) - 1 for group in merged.groups])
+    features["lsl_other_poses"] = np.array([_poses_seen(store, pool[group]) - 1 for group in merged.groups])
     features |= kept_features(bm, longest)
     ends = np.concatenate([store.p[pool], store.q[pool]])
     space = bm.open_space_near((*ends.min(axis=0), *ends.max(axis=0)))
@@ -161,6 +166,16 @@ def _new_lines(
         }
         lid = bm.new_id("L")
         store.line[members] = lid
+        seen = _poses_seen(store, members)
+        if seen > CONSOLIDATE_POSES and len(members) > 1:
+            row = store.consolidate(members, merged.p[k], merged.q[k], lid, seen)
+            store.relation[row], store.mass[row], store.conflict[row] = (
+                base.relation[k],
+                base.fused[k],
+                base.conflict[k],
+            )
+            store.eliminated[row] = False
+            members = np.array([row], dtype=np.intp)
         first_mass = MassFunction.from_dict(bm.frame, first["mass"], open_world=True)
         data = {
             "id": lid,
@@ -182,13 +197,15 @@ def _attach(
     fits = np.array([line.fit for line in lines]).reshape(-1, 2, 2)
     corners = find_corners(fits[:, 0], fits[:, 1], config.corners, viewpoint)
     end_point = {(i, e): line.fixed[e] for i, line in enumerate(lines) for e in (0, 1) if line.fixed[e] is not None}
+    removed_xy = np.array([pxy for pxy, _ in removed], dtype=float).reshape(-1, 2)
     for k, ends in enumerate(corners.ends):
         pairs = [tuple(pair) for pair in ends.tolist()]
         if any(pair in end_point for pair in pairs):
             continue  # an end already on a point outside the change stays there
         cid = bm.new_id("C")
         xy = corners.xy[k]
-        near = [h for pxy, h in removed if np.hypot(*(np.asarray(pxy) - xy)) <= config.corners.distance]
+        close = np.hypot(*(removed_xy - xy).T) <= config.corners.distance
+        near = [removed[j][1] for j in np.flatnonzero(close).tolist()]
         history = _carried_records(near)
         reinforced = any(r["category"] == "matched" for r in history)
         bm.add_point(
@@ -210,6 +227,16 @@ def _attach(
         bm.add_line(data["id"], *nodes, data["mass"], history=data["history"], fit=line.fit.tolist(), **extras)
         added.add(data["id"])
     return added
+
+
+def _poses_seen(store: SegmentStore, rows: NDArray[np.intp]) -> int:
+    """How many poses saw the segments ``rows``: the raw ones' distinct poses, and the poses behind each support.
+
+    A support's poses are counted apart from the raw segments' (after a
+    consolidation, the poses that saw a line again are new ones).
+    """
+    support = store.role[rows] == "support"
+    return len(np.unique(store.pose[rows[~support]])) + int(store.seen[rows[support]].sum())
 
 
 def _carried_records(histories: Iterable[list[dict[str, Any]]]) -> list[dict[str, Any]]:

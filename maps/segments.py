@@ -9,7 +9,15 @@ per-segment features an observation brought for the config's sources. Columns
 are numpy arrays, one row a segment; appending is amortised O(rows added), so
 an observation costs the same however many segments the map already holds.
 ``to_json`` / ``from_json`` carry the store in ``map.json``.
-"""
+
+A line seen from many poses would gather raw segments without end, and every
+rebuild near it would merge them all again. So a line seen from more than
+:data:`CONSOLIDATE_POSES` poses is consolidated (:meth:`SegmentStore.consolidate`):
+its merged support, one row of ``role`` ``"support"`` that stands for the
+``seen`` poses behind it, replaces its members in the rebuilds; the members stay
+in the store (``role`` ``"absorbed"``, still naming the line they were absorbed
+into, their verdict the one they last had) but leave :meth:`SegmentStore.near`.
+Raw segments have ``role`` ``""`` and ``seen`` 1."""
 
 from __future__ import annotations
 
@@ -20,11 +28,21 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from evidential import Frame
+from evmap.maps.spatial import SpatialIndex
 
-__all__ = ["COLUMNS", "SegmentStore"]
+__all__ = ["COLUMNS", "CONSOLIDATE_POSES", "OPTIONAL_COLUMNS", "SegmentStore"]
 
 COLUMNS: tuple[str, ...] = ("p", "q", "pose", "truth", "relation", "mass", "conflict", "eliminated", "line")
 """The columns every store has (see :class:`SegmentStore`)."""
+
+OPTIONAL_COLUMNS: tuple[str, ...] = ("role", "seen")
+"""The columns of consolidation, written always, read as ``""`` and 1 where a file has none."""
+
+CONSOLIDATE_POSES = 3
+"""A line seen from more poses than this is consolidated into its merged support."""
+
+ROLES = ("", "absorbed", "support")
+"""A raw segment, a raw segment absorbed into its line's support, a line's merged support."""
 
 
 class SegmentStore:
@@ -40,6 +58,8 @@ class SegmentStore:
     - ``conflict``: (N,) K between the noise-elimination stage's sources.
     - ``eliminated``: (N,) removed as noise.
     - ``line``: (N,) id of the map line the segment belongs to (``""`` if none).
+    - ``role``: (N,) one of :data:`ROLES` (see the module doc).
+    - ``seen``: (N,) the poses a row stands for: 1 for a raw segment, more for a support.
     - ``features``: name -> (N,) further features observations brought (e.g. an infrared reading).
 
     >>> store = SegmentStore.empty(Frame(["real", "noise"]))
@@ -61,8 +81,11 @@ class SegmentStore:
             "conflict": np.zeros(0),
             "eliminated": np.zeros(0, dtype=bool),
             "line": np.zeros(0, dtype=object),
+            "role": np.zeros(0, dtype="<U8"),
+            "seen": np.zeros(0, dtype=np.intp),
         }
         self._features: dict[str, NDArray[Any]] = {}
+        self._index: SpatialIndex | None = None  # the rows not absorbed; made on first use, then kept
 
     @classmethod
     def empty(cls, frame: Frame) -> SegmentStore:
@@ -124,20 +147,55 @@ class SegmentStore:
                 target = self._features[name] if name in self._features else self._data[name]
             target[rows] = values
         self._data["line"][rows] = ""
+        self._data["role"][rows] = ""
+        self._data["seen"][rows] = 1
         self._n += k
-        return np.arange(rows.start, rows.stop)
+        ids = np.arange(rows.start, rows.stop)
+        if self._index is not None:
+            for i, box in zip(ids.tolist(), _boxes(self.p[ids], self.q[ids]).tolist(), strict=True):
+                self._index.insert(str(i), box)
+        return ids
+
+    def consolidate(self, members: ArrayLike, p: ArrayLike, q: ArrayLike, line: str, seen: int) -> int:
+        """Absorb ``members`` into one support row p-q of ``line`` standing for ``seen`` poses; return its id.
+
+        The support takes the newest member pose, the members' features from the
+        longest, and the members' verdict is left to be judged (relation ``""``).
+
+        >>> store = SegmentStore.empty(Frame(["real", "noise"]))
+        >>> ids = store.append([[0.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [2.0, 0.0]], [3, 5], ["", ""])
+        >>> store.consolidate(ids, [0.0, 0.0], [2.0, 0.0], "L1", 2)
+        2
+        >>> store.role.tolist(), store.seen.tolist(), store.pose.tolist(), store.near((0, -1, 3, 1)).tolist()
+        (['absorbed', 'absorbed', 'support'], [1, 1, 2], [3, 5, 5], [2])
+        """
+        members = np.asarray(members, dtype=np.intp)
+        longest = members[np.argmax(self.length[members])]
+        features = {name: column[[longest]] for name, column in self.features.items()}
+        pose = [int(self.pose[members].max())]
+        (row,) = self.append([p], [q], pose, [""], features).tolist()
+        self._data["line"][row] = line
+        self._data["role"][row] = "support"
+        self._data["seen"][row] = seen
+        self._data["role"][members] = "absorbed"
+        if self._index is not None:
+            for i in members.tolist():
+                self._index.remove(str(i))
+        return row
 
     def near(self, bounds: tuple[float, float, float, float]) -> NDArray[np.intp]:
-        """Ids of the segments whose bounding boxes meet ``bounds`` = (xmin, ymin, xmax, ymax)."""
-        xmin, ymin, xmax, ymax = bounds
-        p, q = self.p, self.q
-        hit = (np.minimum(p[:, 0], q[:, 0]) <= xmax) & (np.maximum(p[:, 0], q[:, 0]) >= xmin)
-        hit &= (np.minimum(p[:, 1], q[:, 1]) <= ymax) & (np.maximum(p[:, 1], q[:, 1]) >= ymin)
-        return np.flatnonzero(hit)
+        """Ids of the segments not absorbed whose bounding boxes meet ``bounds`` = (xmin, ymin, xmax, ymax), sorted.
+
+        A spatial index (:class:`~evmap.maps.spatial.SpatialIndex`): it costs what the box holds.
+        """
+        if self._index is None:
+            live = np.flatnonzero(self.role != "absorbed")
+            self._index = SpatialIndex.from_boxes([str(i) for i in live.tolist()], _boxes(self.p[live], self.q[live]))
+        return np.array(sorted(map(int, self._index.query(bounds))), dtype=np.intp)
 
     def to_json(self) -> dict[str, Any]:
         """The store as JSON-able lists (floats round-trip exactly)."""
-        out: dict[str, Any] = {name: getattr(self, name).tolist() for name in COLUMNS}
+        out: dict[str, Any] = {name: getattr(self, name).tolist() for name in COLUMNS + OPTIONAL_COLUMNS}
         out["features"] = {name: column.tolist() for name, column in self.features.items()}
         return out
 
@@ -170,6 +228,18 @@ class SegmentStore:
                     f"segments.{name}: rows of shape {template.shape[1:]} expected, got {column.shape[1:]}"
                 )
             columns[name] = column
+        n = len(columns["p"])
+        defaults = {"role": np.full(n, ""), "seen": np.ones(n, dtype=np.intp)}
+        for name in OPTIONAL_COLUMNS:
+            template = store._data[name]
+            try:
+                column = np.array(data[name], dtype=template.dtype) if name in data else defaults[name]
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"segments.{name}: {exc}") from None
+            columns[name] = column.reshape(-1)
+        bad = sorted(set(columns["role"].tolist()) - set(ROLES))
+        if bad:
+            raise ValueError(f"segments.role: {bad[0]!r} is not one of {list(ROLES)}")
         features = data.get("features", {})
         if not isinstance(features, dict):
             raise ValueError("segments.features: expected an object of columns")  # noqa: TRY004
@@ -178,8 +248,7 @@ class SegmentStore:
         lengths = {name: len(c) for name, c in columns.items()}
         if len(set(lengths.values())) > 1:
             raise ValueError(f"segments: columns of different lengths {lengths}")
-        n = len(columns["p"])
-        store._data = {name: columns[name] for name in COLUMNS}
+        store._data = {name: columns[name] for name in COLUMNS + OPTIONAL_COLUMNS}
         store._data["line"] = columns["line"].astype(object)
         store._features = {name: columns[name] for name in features}
         store._n = n
@@ -201,3 +270,8 @@ class SegmentStore:
         """Give a string column room for longer strings."""
         columns = self._features if name in self._features else self._data
         columns[name] = columns[name].astype(dtype)
+
+
+def _boxes(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(N, 4) bounding boxes of segments p-q."""
+    return np.hstack([np.minimum(p, q), np.maximum(p, q)]).reshape(-1, 4)

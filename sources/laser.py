@@ -58,7 +58,7 @@ from evmap.sources.params import LslParams
 from evmap.sources.polyline import fit_polylines
 from evmap.sources.readings import LslSegments
 
-__all__ = ["UNKNOWN_TRUTH", "LaserParams", "LaserSegments", "breakpoints", "laser_segments"]
+__all__ = ["UNKNOWN_TRUTH", "LaserParams", "LaserSegments", "Rays", "breakpoints", "laser_segments"]
 
 UNKNOWN_TRUTH = ""
 """``truth`` of a segment from real data: the segment store's "unknown" (fits the ``<U5`` dtype of
@@ -85,6 +85,22 @@ class LaserParams(BaseModel):
 
 
 @dataclass(frozen=True, eq=False)
+class Rays:
+    """The rays of one scan of a contour sensor, in the world frame.
+
+    Attributes
+    ----------
+    origin : (2,) the sensor's position.
+    ends : (R, 2) end of every ray: its point if it returned, else at the maximum range.
+    returned : (R,) whether each ray returned.
+    """
+
+    origin: NDArray[np.float64]
+    ends: NDArray[np.float64]
+    returned: NDArray[np.bool_]
+
+
+@dataclass(frozen=True, eq=False)
 class LaserSegments:
     """The segments and rays of one laser scan.
 
@@ -105,6 +121,11 @@ class LaserSegments:
 
     def __len__(self) -> int:
         return len(self.segments)
+
+    @property
+    def rays(self) -> Rays:
+        """The scan's rays (origin, ends, returned)."""
+        return Rays(self.origin, self.ends, self.returned)
 
 
 def breakpoints(scan: LaserScan, params: LaserParams) -> NDArray[np.intp]:

@@ -46,6 +46,8 @@ def write_artefacts(
         (staging / "report.json").write_text(json.dumps(summary, indent=2) + "\n")
         (staging / "segments.json").write_text(json.dumps(segment_records(run)) + "\n")
         run.map.save(staging / "map.json")
+        if run.log is not None:  # a map of a robot log: the ROS map_server pair too
+            run.map.save_ros_map(staging / "map")
         if figures:
             write_figures(run, staging, figure_format)
         _move_into_place(staging, out)

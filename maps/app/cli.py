@@ -6,6 +6,11 @@
     (``--figures png|svg|pdf|none``, default png; ``--no-figures`` is ``none``)
     into DIR (``docs/SCENARIO.md``); ``--json`` also prints the report on
     standard output, and nothing else goes there.
+``evmap log FILE [--out DIR] [--every N] [--limit N] [--config FILE] [--rule NAME] [--json] [--figures FORMAT] [--force]``
+    a belief map from a robot log (CARMEN, g2o, ROS bag; poses from the log,
+    the laser as the contour sensor) with a progress bar on standard error:
+    the same artefacts as ``run``, and the ROS map pair ``map.pgm``/``map.yaml``
+    (``docs/SCENARIO.md``, logs section).
 ``evmap compare --rules dempster,yager,... --worlds N --seed S --out DIR [--scheduler ADDRESS]``
     every rule on the same scans of N generated worlds: per-rule and per-world
     tables (CSV, Markdown) and plots (see :mod:`evmap.maps.app.compare`).
@@ -29,12 +34,13 @@ import json
 import os
 import signal
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from importlib.metadata import PackageNotFoundError, version
+from typing import Any
 
 from evmap.maps.app.compare import add_compare_parser
 
-__all__ = ["build_parser", "config_check", "config_explain", "main", "run_command"]
+__all__ = ["build_parser", "config_check", "config_explain", "log_command", "main", "run_command"]
 
 Handler = Callable[[argparse.Namespace], int]
 
@@ -102,6 +108,20 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--no-figures", dest="figures", action="store_const", const="none", help="same as --figures none")
     run.set_defaults(handler=run_command)
 
+    log = commands.add_parser("log", help="map a robot log (CARMEN, g2o, ROS bag) and write the run's artefacts")
+    log.add_argument("file", help="the log: *.log, *.clf (gzipped or not), *.g2o, *.bag or a ROS 2 bag directory")
+    log.add_argument("--config", help="config file (default: the packaged configs/paper.yaml)")
+    log.add_argument("--rule", help="combination rule, overriding the config's (a name in evidential.RULES)")
+    log.add_argument("--out", default="out", help="directory for the artefacts (default: out)")
+    log.add_argument("--every", type=int, default=1, help="use every N-th laser scan (default: 1, all)")
+    log.add_argument("--limit", type=int, help="use at most N scans")
+    log.add_argument("--force", action="store_true", help="replace the directory if it is not empty")
+    log.add_argument("--json", action="store_true", help="print report.json on standard output")
+    log.add_argument(
+        "--figures", choices=["png", "svg", "pdf", "none"], default="png", help="figure format (default: png)"
+    )
+    log.set_defaults(handler=log_command)
+
     add_compare_parser(commands)
 
     config = commands.add_parser("config", help="check a config file, explain its evidence sources")
@@ -152,6 +172,42 @@ def run_command(args: argparse.Namespace) -> int:
         f"{summary['lines_after_merge']} lines, {summary['corners']} corners; {summary['rcds_matched']} of "
         f"{summary['rcds_actual']} RCDs matched, {summary['unidentified']} unidentified objects; "
         f"{summary['seconds']['total']:.3f} s; written to {args.out}",
+        file=sys.stderr,
+    )
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    return 0
+
+
+def log_command(args: argparse.Namespace) -> int:
+    """``evmap log FILE``: a belief map from a robot log, its artefacts written all or nothing."""
+    from tqdm import tqdm
+
+    from evmap.maps.app.artefacts import prepare_out, write_artefacts
+    from evmap.maps.app.log_run import run_log
+    from evmap.sources.config import load_config
+
+    cfg = load_config(args.config)
+    if args.rule:
+        cfg = cfg.with_rule(args.rule)
+    prepare_out(args.out, args.force)
+    print(f"evmap: mapping log {args.file} with rule {cfg.rule!r}", file=sys.stderr)
+
+    def bar(records: Iterable[Any]) -> Iterable[Any]:
+        return tqdm(records, desc="scans", unit="scan", file=sys.stderr, total=args.limit, leave=False)
+
+    run = run_log(args.file, cfg, every=args.every, limit=args.limit, progress=bar)
+    summary = write_artefacts(
+        run, args.out, force=args.force, figures=args.figures != "none", figure_format=args.figures
+    )
+    fit = summary["line_fit"]
+    coverage = "n/a" if fit["coverage_mean"] is None else f"{fit['coverage_mean']:.3f}"
+    error = "n/a" if fit["rms_error_median"] is None else f"{100 * fit['rms_error_median']:.2f} cm"
+    print(
+        f"evmap: {summary['scans']} scans (sonar: {summary['sonar']}), {summary['lsl_segments']} segments, "
+        f"{summary['lines_after_merge']} lines, {summary['corners']} corners; line fit coverage {coverage}, "
+        f"error {error}; {summary['seconds']['total']:.1f} s "
+        f"({1000 * summary['seconds']['per_scan_median']:.1f} ms per scan); written to {args.out}",
         file=sys.stderr,
     )
     if args.json:

@@ -1,8 +1,9 @@
 """One run of the paper's experiment on a scenario: sense every pose, fold it into a map, report.
 
-:func:`run_scenario` is what ``evmap run`` computes; :func:`report` and
-:func:`segment_records` give ``report.json`` and ``segments.json`` of
-``docs/SCENARIO.md``.
+:func:`run_scenario` is what ``evmap run`` computes (``evmap log`` makes its
+runs with :func:`evmap.maps.app.log_run.run_log`: no world, a :class:`LogSummary`);
+:func:`report` and :func:`segment_records` give ``report.json`` and
+``segments.json`` of ``docs/SCENARIO.md`` for both.
 """
 
 from __future__ import annotations
@@ -22,7 +23,30 @@ from evmap.sources.config import Config
 from evmap.sources.sim.scenario import Scenario
 from evmap.sources.sim.world import World
 
-__all__ = ["Run", "report", "run_scenario", "segment_records"]
+__all__ = ["LogSummary", "Run", "report", "run_scenario", "segment_records"]
+
+
+@dataclass(frozen=True)
+class LogSummary:
+    """What a run over a robot log measured besides the map (``report.json``'s logs section).
+
+    Attributes
+    ----------
+    source : the log read.
+    scans : the scans used (after ``--every`` and ``--limit``).
+    sonar : ``"log"`` if the log's sonar readings were folded in, ``"none"`` if it had none
+        (the sonar stages skipped).
+    coverage_mean, rms_error_median : PLE's line-fit measures of the scans' laser segments
+        (:func:`evmap.sources.line_fit.log_fit`); None (``null``) where undefined.
+    per_scan_median : median seconds of one scan's computation (extraction and update).
+    """
+
+    source: str
+    scans: int
+    sonar: str
+    coverage_mean: float | None
+    rms_error_median: float | None
+    per_scan_median: float
 
 
 @dataclass(frozen=True, eq=False)
@@ -31,17 +55,19 @@ class Run:
 
     Attributes
     ----------
-    world : the simulated world; config : the config (its rule included).
+    world : the simulated world; None for a robot log. config : the config (its rule included).
     observations : one per pose; outcomes : what each update did.
     map : the final belief map; seconds : ``simulate``, ``fuse`` and ``total`` (computation only).
+    log : for a robot log, what it measured besides (None for a simulation).
     """
 
-    world: World
+    world: World | None
     config: Config
     observations: list[Observation]
     outcomes: list[PoseOutcome]
     map: BeliefMap
     seconds: dict[str, float]
+    log: LogSummary | None = None
 
 
 def run_scenario(scenario: Scenario, config: Config) -> Run:
@@ -65,7 +91,9 @@ def run_scenario(scenario: Scenario, config: Config) -> Run:
 
 
 def report(run: Run) -> dict[str, Any]:
-    """The figures of ``report.json`` (``docs/SCENARIO.md``)."""
+    """The figures of ``report.json`` (``docs/SCENARIO.md``; its logs section for a run over a log)."""
+    if run.log is not None:
+        return _log_report(run, run.log)
     store: SegmentStore = run.map.segments
     noise = store.truth == "noise"
     real = store.truth == "real"
@@ -93,7 +121,12 @@ def report(run: Run) -> dict[str, Any]:
 
 
 def segment_records(run: Run) -> list[dict[str, Any]]:
-    """``segments.json``: every LSL segment before fusion, with its verdict."""
+    """``segments.json``: every LSL (or laser) segment before fusion, with its verdict.
+
+    Ids are rows of the map's segment store; a line's consolidated support is no
+    segment a sensor saw and is left out, and the segments it absorbed keep the
+    verdict they last had. An unknown ground truth is written ``"unknown"``.
+    """
     store: SegmentStore = run.map.segments
     frame = run.map.frame
     labels = [frame.label(mask) for mask in range(store.mass.shape[1])]
@@ -103,13 +136,44 @@ def segment_records(run: Run) -> list[dict[str, Any]]:
             "pose": int(store.pose[i]),
             "p": store.p[i].tolist(),
             "q": store.q[i].tolist(),
-            "truth": str(store.truth[i]),
+            "truth": str(store.truth[i]) or "unknown",
             "relation": str(store.relation[i]),
             "mass": {labels[m]: float(v) for m, v in enumerate(store.mass[i]) if v > 0 or labels[m] != ""},
             "eliminated": bool(store.eliminated[i]),
         }
-        for i in range(len(store))
+        for i in np.flatnonzero(store.role != "support").tolist()
     ]
+
+
+def _log_report(run: Run, log: LogSummary) -> dict[str, Any]:
+    """``report.json`` of a run over a robot log: no ground truth, the line fit, the sonar's provenance."""
+    store: SegmentStore = run.map.segments
+    bm = run.map
+    raw = store.role != "support"
+    kinds = [d["kind"] for _, d in bm.graph.nodes(data=True)]
+    return {
+        "log": log.source,
+        "rule": run.config.rule,
+        "scans": log.scans,
+        "poses": len(run.observations),
+        "sonar": log.sonar,
+        "lsl_segments": int(raw.sum()),
+        "noise_segments": None,
+        "noise_eliminated": None,
+        "real_eliminated": None,
+        "eliminated": int((store.eliminated & raw).sum()),
+        "lines_before_merge": int((~store.eliminated & raw).sum()),
+        "lines_after_merge": bm.graph.number_of_edges(),
+        "corners": kinds.count("corner"),
+        "rcds_actual": sum(len(o.actual) for o in run.outcomes),
+        "rcds_simulated": sum(len(o.predicted) for o in run.outcomes),
+        "rcds_matched": sum(len(o.matched[0]) for o in run.outcomes),
+        "unidentified": kinds.count("unidentified"),
+        "noise_recall": None,
+        "real_loss": None,
+        "line_fit": {"coverage_mean": log.coverage_mean, "rms_error_median": log.rms_error_median},
+        "seconds": {"total": run.seconds["total"], "per_scan_median": log.per_scan_median},
+    }
 
 
 def _share(part: np.ndarray, whole: np.ndarray) -> float:

@@ -55,6 +55,8 @@ __all__ = [
 
 ARC_STEP = np.radians(1.0)
 ROBOT_RADIUS = 0.15
+MAX_ROBOTS = 50
+"""Most robots a map figure draws one by one; beyond, their path."""
 
 
 def walls(ax: Axes, run: Run, alpha: float = 1.0) -> None:
@@ -202,10 +204,17 @@ def robot(ax: Axes, pose: NDArray[np.float64], name: str) -> None:
 
 
 def robots(ax: Axes, run: Run, pose: int | None = None) -> None:
-    """The robot at one pose, or at every pose of the run (``None``), named P0, P1, ..."""
-    chosen = range(len(run.observations)) if pose is None else [pose]
+    """The robot at one pose, or at every pose of the run (``None``), named P0, P1, ...
+
+    A run of more than :data:`MAX_ROBOTS` poses (a robot log) gets its path, and the robot at its first and last.
+    """
+    at = poses(run)
+    chosen = range(len(at)) if pose is None else [pose]
+    if pose is None and len(at) > MAX_ROBOTS:
+        ax.plot(at[:, 0], at[:, 1], color="0.5", linewidth=0.5, zorder=5, gid="robot-path")
+        chosen = [0, len(at) - 1]
     for k in chosen:
-        robot(ax, poses(run)[k], f"P{k}")
+        robot(ax, at[k], f"P{k}")
 
 
 def match_status(rcds: Rcds, matched: NDArray[np.intp]) -> list[str]:

@@ -45,7 +45,8 @@ def write_figures(run: Run, directory: str | Path, fmt: str = "png", *, dpi: int
     Returns
     -------
     The paths written, in the order of ``FIGURE_FILES``: the scan figures (Figs.
-    2, 5 and 6c) once per pose (see :func:`figure_name`), the others once.
+    2, 5 and 6c) once per pose (see :func:`figure_name`), the others once. A run
+    over a robot log (no world) has no scan figures.
 
     >>> import tempfile
     >>> from evmap.sources.config import load_config
@@ -62,6 +63,8 @@ def write_figures(run: Run, directory: str | Path, fmt: str = "png", *, dpi: int
     directory = Path(directory)
     paths = []
     for name, make in FIGURE_FILES.items():
+        if make in SCAN_FIGURES and run.log is not None:
+            continue  # a log's scans are thousands: its map figures show them all, no figure per scan
         for pose in range(len(run.observations)) if make in SCAN_FIGURES else [None]:
             fig = make(run) if pose is None else make(run, pose)
             path = directory / figure_name(name, fmt, pose)

@@ -1,0 +1,117 @@
+"""Robot logs into belief maps: observations without sonar, ``evmap log``, consolidated lines."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from evmap import configs
+from evmap.maps import new_map
+from evmap.maps.app.cli import main
+from evmap.maps.app.log_run import run_log
+from evmap.maps.app.run import run_scenario
+from evmap.maps.merging import related_pairs
+from evmap.maps.observation import Observation, observation_from_log
+from evmap.sources.config import load_config
+from evmap.sources.logs import open_log
+from evmap.sources.logs.scan import RangeReadings
+from evmap.sources.sim.scenario import load_scenario
+
+DATA = Path(__file__).parent / "data" / "logs"
+INTEL = DATA / "intel-excerpt.log.gz"
+
+
+@pytest.fixture(scope="module")
+def config():
+    return load_config()
+
+
+@pytest.fixture(scope="module")
+def intel(config):
+    return run_log(INTEL, config)
+
+
+def test_an_observation_without_sonar_skips_the_sonar_stages(config):
+    record = next(iter(open_log(INTEL)))
+    obs = observation_from_log(record, config, 0)
+    assert obs.sonar is None and len(obs.lsl) > 0
+    assert obs.rays.shape == (len(record.scan), 2)  # bearing and range of every beam, NaN where none returned
+    np.testing.assert_array_equal(obs.pose, record.robot_pose)
+    bm = new_map(config)
+    outcome = bm.update(obs)
+    assert outcome.predicted_scan is None and len(outcome.actual) == 0 and outcome.open_space.is_empty
+    assert bm.open_space.is_empty and bm.graph.number_of_edges() > 0
+    assert not bm.unidentified() and not any(d.get("reinforced") for _, _, d in bm.graph.edges(data=True))
+
+
+def test_an_observation_needs_a_pose_and_a_sonar_pose_must_agree(config):
+    record = next(iter(open_log(INTEL)))
+    obs = observation_from_log(record, config, 0)
+    with pytest.raises(ValueError, match="needs robot_pose"):
+        Observation(0, None, obs.lsl)
+    ring = RangeReadings(
+        0.0, np.array([[0.1, 0.0, 0.0], [0.0, 0.1, np.pi / 2]]), np.array([1.0, 2.0]), 5.0, np.full(2, 0.4)
+    )
+    with_sonar = observation_from_log(record, config, 0, sonar=ring)
+    assert with_sonar.sonar is not None and len(with_sonar.sonar) == 2
+    with pytest.raises(ValueError, match="is not the sonar scan's pose"):
+        Observation(0, with_sonar.sonar, obs.lsl, robot_pose=np.asarray(record.robot_pose) + 1.0)
+
+
+def test_a_log_run_reports_its_scans_line_fit_and_no_sonar(intel):
+    assert intel.log.scans == len(intel.observations) == len(list(open_log(INTEL)))
+    assert intel.log.sonar == "none"
+    assert 0.5 < intel.log.coverage_mean <= 1.0 and 0 < intel.log.rms_error_median < 0.05
+    assert sorted(intel.map.poses) == list(range(intel.log.scans))
+
+
+def test_lines_seen_from_many_poses_are_one_line_per_wall(intel, config):
+    g = intel.map.graph
+    fits = np.array([d["fit"] for _, _, d in g.edges(data=True)])
+    a, _, _ = related_pairs(fits[:, 0], fits[:, 1], config.merge)
+    assert len(a) == 0
+    store = intel.map.segments
+    support = np.flatnonzero(store.role == "support")
+    assert len(support) > 0 and (store.seen[support] > 3).all()
+    members = [m for _, _, d in g.edges(data=True) for m in d["members"]]
+    assert not (store.role[members] == "absorbed").any()  # a line's members are its live rows
+
+
+def test_patrol_lines_are_one_line_per_wall(config):
+    run = run_scenario(load_scenario(configs.path("scenarios/patrol.yaml")), config)
+    fits = np.array([d["fit"] for _, _, d in run.map.graph.edges(data=True)])
+    a, _, _ = related_pairs(fits[:, 0], fits[:, 1], config.merge)
+    assert len(a) == 0
+
+
+def test_evmap_log_writes_the_run_artefacts(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert (
+        main(["log", str(INTEL), "--out", str(out), "--every", "2", "--limit", "5", "--json", "--figures", "svg"]) == 0
+    )
+    printed = json.loads(capsys.readouterr().out)
+    report = json.loads((out / "report.json").read_text())
+    assert printed == report
+    assert report["scans"] == 5 and report["sonar"] == "none"
+    assert report["noise_recall"] is None and report["real_loss"] is None
+    assert set(report["seconds"]) == {"total", "per_scan_median"} and set(report["line_fit"]) == {
+        "coverage_mean",
+        "rms_error_median",
+    }
+    segments = json.loads((out / "segments.json").read_text())
+    assert {s["pose"] for s in segments} == set(range(5)) and {s["truth"] for s in segments} == {"unknown"}
+    assert len(segments) == report["lsl_segments"]
+    names = {p.name for p in out.iterdir()}
+    assert {"report.json", "segments.json", "map.json", "map.pgm", "map.yaml", "fig7_final_map.svg"} <= names
+    assert not any("pose" in n for n in names)
+
+
+def test_a_bad_log_is_an_error_naming_file_and_line_and_nothing_is_written(tmp_path, capsys):
+    bad = tmp_path / "bad.log"
+    bad.write_text("FLASER 3 1.0 2.0 x 0 0 0 0 0 0 0 0 host 0\n")
+    out = tmp_path / "out"
+    assert main(["log", str(bad), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"evmap: error: {bad}:1: " in err
+    assert not out.exists() and list(tmp_path.iterdir()) == [bad]
