@@ -18,6 +18,7 @@ from evmap.maps.noise import COMPUTED
 from evmap.sources.config import Config
 from evmap.sources.readings import LslSegments, SonarScan
 from evmap.sources.sim.lsl import observe_lsl
+from evmap.sources.sim.sensor_models import simulate_features
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World
 
@@ -69,6 +70,7 @@ def observe(world: World, pose_index: int, config: Config) -> Observation:
 
     The scenario's ``sensors`` section overrides the config's sensor parameters;
     all noise comes from the scenario's seed (sonar: stream :data:`SONAR_STREAM`).
+    The config's ``extra_sensors`` are simulated too and bring their features.
 
     >>> from evmap.sources.config import load_config
     >>> from evmap.sources.sim.scenario import default_scenario
@@ -79,4 +81,5 @@ def observe(world: World, pose_index: int, config: Config) -> Observation:
     sonar, lsl = world.scenario.sensor_params(config.sensors.sonar, config.sensors.lsl)
     rng = np.random.default_rng([world.seed, pose_index, SONAR_STREAM])
     scan = simulate_scan(world.surfaces(), world.poses[pose_index], sonar, rng=rng)
-    return Observation(pose_index, scan, observe_lsl(world, pose_index, lsl))
+    segments = observe_lsl(world, pose_index, lsl)
+    return Observation(pose_index, scan, segments, simulate_features(world, pose_index, config.extra_sensors, segments))
