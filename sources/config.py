@@ -424,9 +424,7 @@ def _build(spec: ConfigFile, name: str, document: Document | None) -> Config:
             if feature in PIPELINE_FEATURES or feature in declared:
                 raise SpecError(("extra_sensors", sensor_name), f"its feature {feature!r} is already given")
             declared[feature] = categories
-    warnings = [
-        _check_feature(spec, stage, source_name, declared) for stage in STAGES for source_name in stages[stage]
-    ]
+    warnings = [_check_feature(spec, stage, source_name, declared) for stage in STAGES for source_name in stages[stage]]
     return Config(
         name=name,
         spec=spec,

@@ -26,7 +26,7 @@ from pydantic import Field, Strict
 from evmap.sources.evidence import Name
 from evmap.sources.sensor_kinds import SensorSpec
 
-__all__ = ["CONTOUR_ARRAYS", "AGGREGATES", "ContourPropertySpec", "contour_features"]
+__all__ = ["AGGREGATES", "CONTOUR_ARRAYS", "ContourPropertySpec", "contour_features"]
 
 Material = Annotated[str, Strict(), Field(min_length=1, max_length=200)]
 Finite = Annotated[float, Field(allow_inf_nan=False)]

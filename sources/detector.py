@@ -17,6 +17,7 @@ segment, for a sensor ``NAME``:
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Mapping
 from typing import Annotated, Literal
 
@@ -60,7 +61,7 @@ class DetectorSpec(SensorSpec):
     def _increasing(self) -> DetectorSpec:
         for key in ("detection", "false_alarms"):
             ranges = [r for r, _ in getattr(self, key)]
-            if any(b <= a for a, b in zip(ranges, ranges[1:])):
+            if any(b <= a for a, b in itertools.pairwise(ranges)):
                 raise ValueError(f"{key}: ranges must be strictly increasing, got {ranges}")
         if any(not 0 <= prob <= 1 for _, prob in self.detection):
             raise ValueError("detection: probabilities must be in [0, 1]")

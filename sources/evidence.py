@@ -41,15 +41,15 @@ from numpy.typing import ArrayLike, NDArray
 from pydantic import BaseModel, ConfigDict, Field, Strict, StringConstraints
 
 from evidential import Frame
-from evmap.sources.conformance import MASS_TOLERANCE, check_masses, check_source
+from evmap.sources.conformance import MASS_TOLERANCE, check_source
 
 __all__ = [
+    "EXAMPLE_FRAME",
     "KINDS",
     "MASS_TOLERANCE",
     "MAX_BREAK_POINTS",
     "MAX_CATEGORIES",
     "MAX_TABLE_CELLS",
-    "EXAMPLE_FRAME",
     "BoundSource",
     "EvidenceSource",
     "FocalResolver",
@@ -422,7 +422,13 @@ class RampSpec(SourceSpec):
 @register_kind(
     "ramp",
     RampSpec,
-    {"frame": "existence", "feature": "length", "focal": "real", "points": [[0, 0], [0.4, 0.6]], "rest": {"unknown": 1}},
+    {
+        "frame": "existence",
+        "feature": "length",
+        "focal": "real",
+        "points": [[0, 0], [0.4, 0.6]],
+        "rest": {"unknown": 1},
+    },
 )
 def build_ramp(name: str, spec: RampSpec, frame: Frame, focal: FocalResolver) -> BoundSource:
     """Build a ramp source; break points strictly increasing in x, masses in [0, 1]."""

@@ -123,13 +123,13 @@ _PROBES = (
 
 def _register_rule(name: str, function: Any, origin: str) -> None:
     if not callable(function):
-        raise ValueError(f"rule {name!r}: the entry point gives {type(function).__name__}, not a function")
+        raise TypeError(f"rule {name!r}: the entry point gives {type(function).__name__}, not a function")
     options = dict(getattr(function, "rule_options", {}))
     register_rule(name, builtin=False, **options)(function)
     try:
         for a, b in _PROBES:
             combine_batch(a, b, rule=name)
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - whatever the rule raised, it is refused, and says why
         del RULES[name]
         raise ValueError(f"rule {name!r} refused: {exc}") from None
     _ORIGINS[("evmap.rules", name)] = origin
@@ -142,6 +142,8 @@ def _register_source_kind(name: str, kind: Any, origin: str) -> None:
 
 
 def _register_sensor_kind(name: str, kind: Any, origin: str) -> None:
+    import evmap.sources.sim.sensor_models  # noqa: F401 - the built-in kinds first: a plugin cannot take their names
+
     if not isinstance(kind, SensorKind) or kind.name != name:
         raise ValueError(f"sensor kind {name!r}: the entry point must give a SensorKind named {name!r}")
     register_sensor_kind(dataclasses.replace(kind, origin=origin))

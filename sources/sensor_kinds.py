@@ -26,6 +26,7 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -46,6 +47,7 @@ __all__ = [
     "check_features",
     "check_readings",
     "features_from_arrays",
+    "read_readings",
     "register_sensor_kind",
 ]
 
@@ -201,8 +203,7 @@ def check_features(
         values = np.asarray(features[name])
         if values.shape != (n,):
             raise ValueError(
-                f"sensor {sensor}: feature {name!r} needs one value per segment ({n}), "
-                f"got shape {values.shape}"
+                f"sensor {sensor}: feature {name!r} needs one value per segment ({n}), got shape {values.shape}"
             )
         if categories is None:
             values = values.astype(float)
@@ -213,8 +214,7 @@ def check_features(
         if len(bad):
             described = f"its categories are {list(categories)}" if categories else "it must be a finite number"
             raise ValueError(
-                f"sensor {sensor}: feature {name!r} has value {values[bad[0]].item()!r} "
-                f"(segment {bad[0]}); {described}"
+                f"sensor {sensor}: feature {name!r} has value {values[bad[0]].item()!r} (segment {bad[0]}); {described}"
             )
         out[name] = values
     return out
@@ -270,3 +270,21 @@ def features_from_arrays(
         out.update(sensor.features(readings[name], p, q))
     return out
 
+
+def read_readings(path: str | Path) -> dict[str, dict[str, NDArray[Any]]]:
+    """One pose's readings of the declared sensors from a log file: an ``.npz`` with arrays ``SENSOR/ARRAY``.
+
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     np.savez(f"{tmp}/pose0.npz", **{"radar/pose": np.zeros(3), "radar/points": np.zeros((0, 2))})
+    ...     {k: sorted(v) for k, v in read_readings(f"{tmp}/pose0.npz").items()}
+    {'radar': ['points', 'pose']}
+    """
+    out: dict[str, dict[str, NDArray[Any]]] = {}
+    with np.load(path, allow_pickle=False) as log:
+        for key in log.files:
+            sensor, slash, array = key.partition("/")
+            if not slash:
+                raise ValueError(f"{path}: array {key!r} is not named SENSOR/ARRAY")
+            out.setdefault(sensor, {})[array] = log[key]
+    return out

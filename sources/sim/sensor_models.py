@@ -42,6 +42,7 @@ from evmap.sources.sensor_kinds import SENSOR_KINDS, DeclaredSensor, SensorKind,
 from evmap.sources.sim.world import World, cast_rays, wall_id
 
 __all__ = [
+    "BUILTIN_SENSOR_KINDS",
     "SENSOR_STREAM",
     "materials",
     "sensor_kinds",
@@ -200,7 +201,7 @@ def sensor_kinds() -> dict[str, SensorKind]:
     return SENSOR_KINDS
 
 
-register_sensor_kind(
+BUILTIN_SENSOR_KINDS: tuple[SensorKind, ...] = (
     SensorKind(
         name="range",
         spec=RangeSpec,
@@ -210,9 +211,7 @@ register_sensor_kind(
         simulate=simulate_range,
         example={"kind": "range", "beams": 8, "cone_deg": 10, "max_range": 2.0},
         summary="a range sensor (one beam, a ring, rotating): free space and echoes",
-    )
-)
-register_sensor_kind(
+    ),
     SensorKind(
         name="detector",
         spec=DetectorSpec,
@@ -222,9 +221,7 @@ register_sensor_kind(
         simulate=simulate_detector,
         example={"kind": "detector", "materials": ["glass"]},
         summary="reports objects of some materials, with a detection probability and false alarms by range",
-    )
-)
-register_sensor_kind(
+    ),
     SensorKind(
         name="contour_property",
         spec=ContourPropertySpec,
@@ -234,5 +231,10 @@ register_sensor_kind(
         simulate=simulate_contour,
         example={"kind": "contour_property", "property": "width", "values": {"wall": [3.0, 0.5]}},
         summary="a per-point property of the contour sensor (intensity, stripe width), aggregated per segment",
-    )
+    ),
 )
+"""The built-in sensor kinds, registered when this module is first imported."""
+
+for _kind in BUILTIN_SENSOR_KINDS:
+    if _kind.name not in SENSOR_KINDS:  # once, whichever name this module was imported by
+        register_sensor_kind(_kind)
