@@ -178,18 +178,21 @@ class SourceKind:
     """A kind of source: the model of its YAML section, its builder, and an example section.
 
     ``example`` is a valid section on the frame :data:`EXAMPLE_FRAME` named ``existence``
-    (without ``kind``), built and checked at registration; ``origin`` says where the kind
-    comes from (``builtin``, or a plugin's entry point).
+    (without ``kind``), built and checked at registration (``None``: the kind's sources are
+    checked only when a config builds them); ``origin`` says where the kind comes from
+    (``builtin``, or a plugin's entry point).
     """
 
     name: str
     spec: type[SourceSpec]
     build: Builder[Any]
-    example: Mapping[str, Any]
+    example: Mapping[str, Any] | None = None
     origin: str = "builtin"
 
     def build_example(self) -> EvidenceSource:
         """The source of the example section, on :data:`EXAMPLE_FRAME`."""
+        if self.example is None:
+            raise ValueError(f"source kind {self.name!r} has no example section")
         spec = self.spec.model_validate({"kind": self.name, **self.example})
         return self.build(f"{self.name}_example", spec, EXAMPLE_FRAME, example_focal)
 
@@ -199,7 +202,7 @@ KINDS: dict[str, SourceKind] = {}
 
 
 def register_kind(
-    name: str, spec: type[Spec], example: Mapping[str, Any], origin: str = "builtin"
+    name: str, spec: type[Spec], example: Mapping[str, Any] | None = None, origin: str = "builtin"
 ) -> Callable[[Builder[Spec]], Builder[Spec]]:
     """Register a kind of source under ``name`` (a decorator of its builder), after checking it.
 
@@ -208,7 +211,8 @@ def register_kind(
     resolver of focal-set names to bitmasks; it returns an :class:`EvidenceSource`
     and reports a bad section by raising :class:`SpecError`. ``example`` is a
     section on the frame ``existence`` (:data:`EXAMPLE_FRAME`): it is built, and
-    its source run through :func:`check_source`, before the kind is registered.
+    its source run through :func:`check_source`, before the kind is registered
+    (without one, the kind's sources are checked when a config builds them).
 
     Raises
     ------
@@ -236,8 +240,9 @@ def register_kind(
             raise ValueError(f"source kind {name!r} is already registered")
         kind = SourceKind(name, spec, build, example, origin)
         try:
-            source = kind.build_example()
-            check_source(source, getattr(source, "examples", ()))
+            if example is not None:
+                source = kind.build_example()
+                check_source(source, getattr(source, "examples", ()))
         except (ValueError, TypeError) as exc:
             raise ValueError(f"source kind {name!r}: {exc}") from None
         KINDS[name] = kind

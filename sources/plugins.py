@@ -136,8 +136,8 @@ def _register_rule(name: str, function: Any, origin: str) -> None:
 
 
 def _register_source_kind(name: str, kind: Any, origin: str) -> None:
-    if not isinstance(kind, SourceKind) or kind.name != name:
-        raise ValueError(f"source kind {name!r}: the entry point must give a SourceKind named {name!r}")
+    if not isinstance(kind, SourceKind) or kind.name != name or kind.example is None:
+        raise ValueError(f"source kind {name!r}: the entry point must give a SourceKind named {name!r} with an example")
     register_kind(name, kind.spec, kind.example, origin)(kind.build)
 
 

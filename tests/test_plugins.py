@@ -129,7 +129,7 @@ def test_plugin_kinds_are_checked_at_registration(plugin_module):
     assert KINDS["logistic"].origin == "tests"
     with pytest.raises(ValueError, match="source kind 'overfull': row 0 sums to 2"):
         register_plugin("evmap.source_kinds", "overfull", plugin_module.OVERFULL, "tests")
-    with pytest.raises(ValueError, match="must give a SourceKind named 'other'"):
+    with pytest.raises(ValueError, match="must give a SourceKind named 'other' with an example"):
         register_plugin("evmap.source_kinds", "other", plugin_module.LOGISTIC, "tests")
     register_plugin("evmap.sensor_kinds", "bumper", plugin_module.BUMPER, "tests")
     assert SENSOR_KINDS["bumper"].declares("b", SENSOR_KINDS["bumper"].spec(kind="bumper")) == {

@@ -77,15 +77,19 @@ def test_simulated_readings_follow_the_seed_rule():
     assert not np.array_equal(first["points"], other["points"])
 
 
-@pytest.mark.parametrize("name", ["range", "detector", "contour_property"])
+SECTIONS = {
+    "range": {"kind": "range", "beams": 8, "cone_deg": 10, "max_range": 2.0},
+    "detector": {"kind": "detector", "materials": ["wall"]},
+    "contour_property": {"kind": "contour_property", "property": "w", "values": {"wall": [3, 1], "sunlight": [8, 2]}},
+}
+
+
+@pytest.mark.parametrize("name", sorted(SECTIONS))
 def test_sensor_kind_conformance(name):
     """Every simulated kind: one valid value per segment, deterministic, one segment alone as in the batch."""
     world = World(default_scenario())
     kind = sensor_kinds()[name]
-    sensors = (
-        {"s": {**kind.example, "values": {"wall": [3.0, 0.5], "sunlight": [8, 2]}}} if name.startswith("c") else {}
-    )
-    sensor = with_sensors(sensors or {"s": dict(kind.example)}).extra_sensors["s"]
+    sensor = with_sensors({"s": SECTIONS[name]}).extra_sensors["s"]
     lsl = observe_lsl(world, 0, load_config().sensors.lsl)
     readings = kind.simulate(world, 0, sensor.spec, sensor_rng(world, 0, "s"), lsl)
     batch = sensor.features(readings, lsl.p, lsl.q)
