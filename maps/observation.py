@@ -25,6 +25,7 @@ from evmap.sources.logs.scan import LogRecord, RangeReadings
 from evmap.sources.params import SonarParams
 from evmap.sources.readings import LslSegments, SonarScan
 from evmap.sources.sim.lsl import observe_stripe
+from evmap.sources.sim.sensor_models import simulate_features
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World
 
@@ -94,6 +95,7 @@ def observe(world: World, pose_index: int, config: Config) -> Observation:
 
     The scenario's ``sensors`` section overrides the config's sensor parameters;
     all noise comes from the scenario's seed (sonar: stream :data:`SONAR_STREAM`).
+    The config's ``extra_sensors`` are simulated too and bring their features.
 
     >>> from evmap.sources.config import load_config
     >>> from evmap.sources.sim.scenario import default_scenario
@@ -105,7 +107,8 @@ def observe(world: World, pose_index: int, config: Config) -> Observation:
     rng = np.random.default_rng([world.seed, pose_index, SONAR_STREAM])
     scan = simulate_scan(world.surfaces(), world.poses[pose_index], sonar, rng=rng)
     segments, rays = observe_stripe(world, pose_index, lsl)
-    return Observation(pose_index, scan, segments, rays=rays)
+    features = simulate_features(world, pose_index, config.extra_sensors, segments)
+    return Observation(pose_index, scan, segments, features, rays=rays)
 
 
 def observation_from_log(

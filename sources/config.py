@@ -17,7 +17,12 @@ and no meaning in the order of keys. Its top-level keys:
     the combination rule, a name in :data:`evidential.RULES` (default ``dempster``).
 ``sources``
     source name -> a section with ``kind`` (a name in :data:`evmap.sources.evidence.KINDS`:
-    ``table`` or ``ramp``), ``frame``, ``feature`` and the kind's own keys.
+    ``table``, ``ramp``, or a plugin's), ``frame``, ``feature`` and the kind's own keys.
+``extra_sensors``
+    sensor name -> a section with ``kind`` (a name in
+    :data:`evmap.sources.sensor_kinds.SENSOR_KINDS`: ``range``, ``detector``,
+    ``contour_property``, or a plugin's) and the kind's parameters: sensors beyond the
+    sonar and the LSL, whose features (``NAME_...``) noise-elimination sources read.
 ``stages``
     which sources each stage of the pipeline combines: ``noise_elimination``,
     ``reinforcement``, ``unidentified`` (lists of source names).
@@ -46,6 +51,7 @@ from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictInt
 
 from evidential import RULES, Frame
 from evmap import configs
+from evmap.sources.conformance import check_source
 from evmap.sources.evidence import KINDS, EvidenceSource, Name, SpecError, Text
 from evmap.sources.loading import Document, InputError, key_path, read_document, validate
 from evmap.sources.params import (
@@ -59,6 +65,8 @@ from evmap.sources.params import (
     SonarParams,
     UnidentifiedParams,
 )
+from evmap.sources.plugins import load_plugins, refusal
+from evmap.sources.sensor_kinds import MAX_SENSORS, DeclaredSensor, build_sensors
 
 __all__ = [
     "MAX_ALIASES",
@@ -141,8 +149,8 @@ PIPELINE_FEATURES: Mapping[str, Feature] = MappingProxyType(
     }
 )
 """The features the pipeline computes, by name. A noise-elimination (or repeated-observation)
-source may also read a feature an observation brings (e.g. from a sensor defined in YAML);
-no built-in sensor computes one, so ``evmap run`` on a simulated scenario cannot use it."""
+source may also read a feature of a sensor declared under ``extra_sensors`` (simulated in
+runs on scenarios), or one an observation brings."""
 
 
 class _Section(BaseModel):
@@ -186,6 +194,7 @@ class ConfigFile(_Section):
     frame: Name
     rule: Text = "dempster"
     sources: dict[Name, dict[str, Any]] = Field(min_length=1, max_length=MAX_SOURCES)
+    extra_sensors: dict[Name, dict[str, Any]] = Field(default_factory=dict, max_length=MAX_SENSORS)
     stages: StagesSpec
     sensors: SensorsParams = SensorsParams()
     rcd: RcdParams = RcdParams()
@@ -215,7 +224,9 @@ class Config:
     sensors, rcd, rcd_figure, open_space, noise, merge, corners, matching, unidentified :
         the parameter models of :mod:`evmap.sources.params`.
     warnings : what a valid config does that may not work: a source reading a feature no
-        built-in sensor computes (``evmap config check`` prints them, see :func:`check_simulated_run`).
+        sensor computes (``evmap config check`` prints them, see :func:`check_simulated_run`).
+    extra_sensors : sensor name -> :class:`~evmap.sources.sensor_kinds.DeclaredSensor`, the
+        sensors declared in YAML; simulated runs simulate them, logs and Python bring their readings.
     """
 
     name: str
@@ -236,6 +247,7 @@ class Config:
     matching: MatchParams
     unidentified: UnidentifiedParams
     warnings: tuple[str, ...] = ()
+    extra_sensors: Mapping[str, DeclaredSensor] = dataclasses.field(default_factory=lambda: MappingProxyType({}))
 
     @property
     def frame(self) -> Frame:
@@ -316,10 +328,12 @@ def check_simulated_run(config: Config) -> None:
         naming the file, the key path of the source's ``feature`` and the feature.
 
     >>> check_simulated_run(load_config())
-    >>> check_simulated_run(load_config(configs.path("examples/infrared.yaml")))
+    >>> check_simulated_run(load_config(configs.path("examples/infrared.yaml")))  # the sensor `ir` gives ir_return
+    >>> data = load_config(configs.path("examples/infrared.yaml")).to_data()
+    >>> check_simulated_run(config_from_data({**data, "extra_sensors": {}}, "no_ir"))
     Traceback (most recent call last):
     ...
-    evmap.sources.loading.InputError: .../infrared.yaml: sources.infrared.feature: reads feature 'ir_return', ...
+    evmap.sources.loading.InputError: no_ir: sources.infrared.feature: reads feature 'ir_return', ...
     """
     if config.warnings:
         raise InputError(config.warnings[0])
@@ -359,14 +373,20 @@ def _build(spec: ConfigFile, name: str, document: Document | None) -> Config:
     except ValueError as exc:
         raise SpecError(("rule",), str(exc)) from None
 
+    sensors = build_sensors(spec.extra_sensors, lambda model, data, at: validate(model, data, name, at, document))
     built: dict[str, EvidenceSource] = {}
     for source_name, data in spec.sources.items():
         at = ("sources", source_name)
         kind = data.get("kind")
         if kind is None:
             raise SpecError((*at, "kind"), f"required key is missing; kinds are: {', '.join(sorted(KINDS))}")
+        if isinstance(kind, str) and kind not in KINDS:
+            load_plugins()  # a kind of an installed package, registered on first use
         if not isinstance(kind, str) or kind not in KINDS:
-            raise SpecError((*at, "kind"), f"unknown source kind {kind!r}; kinds are: {', '.join(sorted(KINDS))}")
+            problem = refusal("evmap.source_kinds", kind) if isinstance(kind, str) else None
+            raise SpecError(
+                (*at, "kind"), problem or f"unknown source kind {kind!r}; kinds are: {', '.join(sorted(KINDS))}"
+            )
         source_spec = validate(KINDS[kind].spec, data, name, at, document)
         if source_spec.frame not in frames:
             raise SpecError((*at, "frame"), f"unknown frame {source_spec.frame!r}; frames are: {', '.join(frames)}")
@@ -380,6 +400,10 @@ def _build(spec: ConfigFile, name: str, document: Document | None) -> Config:
             built[source_name] = KINDS[kind].build(source_name, source_spec, frame, focal)
         except SpecError as exc:
             raise SpecError((*at, *exc.at), exc.problem) from None
+        try:  # the conformance checks, once, on the source's own example values
+            check_source(built[source_name], getattr(built[source_name], "examples", ()))
+        except ValueError as exc:
+            raise SpecError(at, f"source kind {kind!r} ({KINDS[kind].origin}): {exc}") from None
 
     stages: dict[str, tuple[str, ...]] = {}
     for stage in STAGES:
@@ -397,7 +421,13 @@ def _build(spec: ConfigFile, name: str, document: Document | None) -> Config:
                     f"source {source_name!r} is on frame {source_frame!r}, not on the config's frame {spec.frame!r}",
                 )
         stages[stage] = tuple(names)
-    warnings = [_check_feature(spec, stage, source_name) for stage in STAGES for source_name in stages[stage]]
+    declared: dict[str, tuple[str, ...] | None] = {}
+    for sensor_name, sensor in sensors.items():
+        for feature, categories in sensor.declares().items():
+            if feature in PIPELINE_FEATURES or feature in declared:
+                raise SpecError(("extra_sensors", sensor_name), f"its feature {feature!r} is already given")
+            declared[feature] = categories
+    warnings = [_check_feature(spec, stage, source_name, declared) for stage in STAGES for source_name in stages[stage]]
     return Config(
         name=name,
         spec=spec,
@@ -412,6 +442,7 @@ def _build(spec: ConfigFile, name: str, document: Document | None) -> Config:
             str(document.error(at, problem) if document is not None else f"{name}: {key_path(at)}: {problem}")
             for at, problem in dict.fromkeys(w for w in warnings if w is not None)
         ),
+        extra_sensors=MappingProxyType(sensors),
     )
 
 
@@ -427,15 +458,19 @@ def _check_map_frame(spec: ConfigFile) -> None:
         )
 
 
-def _check_feature(spec: ConfigFile, stage: str, source_name: str) -> tuple[tuple[str, ...], str] | None:
+def _check_feature(
+    spec: ConfigFile, stage: str, source_name: str, declared: Mapping[str, tuple[str, ...] | None]
+) -> tuple[tuple[str, ...], str] | None:
     """Raise SpecError if a stage's source reads a feature the stage never gives, or cannot judge its values.
 
-    Returns a warning (key path, text) for a feature no built-in sensor computes but an
-    observation may bring, else ``None``.
+    ``declared`` are the features of the config's ``extra_sensors``. Returns a warning
+    (key path, text) for a feature no sensor computes but an observation may bring, else ``None``.
     """
     data = spec.sources[source_name]
     feature, at = data["feature"], ("sources", source_name)
     known = PIPELINE_FEATURES.get(feature)
+    if known is None and feature in declared:
+        known = Feature(_SEGMENT_STAGES, declared[feature])
     if known is None or stage not in known.stages:
         given = [f for f, spec_ in PIPELINE_FEATURES.items() if stage in spec_.stages]
         if stage not in _SEGMENT_STAGES:
@@ -446,9 +481,9 @@ def _check_feature(spec: ConfigFile, stage: str, source_name: str) -> tuple[tupl
         return (
             (*at, "feature"),
             (
-                f"reads feature {feature!r}, which no built-in sensor computes (stage {stage} computes "
-                f"{', '.join(given)}); `evmap run` on a simulated scenario cannot use this source, only "
-                f"observations that bring {feature!r}"
+                f"reads feature {feature!r}, which no sensor computes (stage {stage} computes "
+                f"{', '.join([*given, *declared])}); `evmap run` on a simulated scenario cannot use this source, "
+                f"only observations that bring {feature!r} (declare a sensor under `extra_sensors` that gives it)"
             ),
         )
     if known.categories is None and data["kind"] == "table":
@@ -469,6 +504,9 @@ def _check_feature(spec: ConfigFile, stage: str, source_name: str) -> tuple[tupl
 
 
 def _check_rule(rule: str) -> None:
-    """Refuse a rule name that is not in the engine's registry."""
+    """Refuse a rule name that is not in the engine's registry (plugins' rules loaded on first miss)."""
+    if isinstance(rule, str) and rule not in RULES:
+        load_plugins()
     if not isinstance(rule, str) or rule not in RULES:
-        raise ValueError(f"unknown rule {rule!r}; rules are: {', '.join(sorted(RULES))}")
+        problem = refusal("evmap.rules", rule) if isinstance(rule, str) else None
+        raise ValueError(problem or f"unknown rule {rule!r}; rules are: {', '.join(sorted(RULES))}")

@@ -7,8 +7,12 @@ the empty set), ready for :func:`evidential.combine_batch`.
 
 Sources are built from YAML (see :mod:`evmap.sources.config`). Each *kind* of source is
 registered by name with :func:`register_kind`: a pydantic model of its YAML
-section and a builder that binds a plain array function to its validated tables
-(``functools.partial``). Two kinds need no Python at all:
+section, a builder that binds a plain array function to its validated tables
+(``functools.partial``), and an example section. Registration builds the example
+and runs it through :func:`check_source` (rows are mass functions, one per
+object, deterministic, the same one by one as in a batch), and every source a
+config builds is checked the same way on its example values: a kind whose rows
+are not mass functions is refused with its name. Two kinds need no Python at all:
 
 ``table``
     a categorical feature (``outside``, ``partly_inside``, ``inside``) mapped to
@@ -37,8 +41,10 @@ from numpy.typing import ArrayLike, NDArray
 from pydantic import BaseModel, ConfigDict, Field, Strict, StringConstraints
 
 from evidential import Frame
+from evmap.sources.conformance import MASS_TOLERANCE, check_source
 
 __all__ = [
+    "EXAMPLE_FRAME",
     "KINDS",
     "MASS_TOLERANCE",
     "MAX_BREAK_POINTS",
@@ -53,6 +59,7 @@ __all__ = [
     "SpecError",
     "TableSpec",
     "Text",
+    "example_focal",
     "mass_row",
     "ramp_masses",
     "register_kind",
@@ -65,8 +72,8 @@ MAX_BREAK_POINTS = 1000
 """Most break points in one ramp source."""
 MAX_TABLE_CELLS = 1 << 16
 """Most dense cells (categories times ``2**n``) in one table source."""
-MASS_TOLERANCE = 1e-9
-"""Masses (and ramp proportions) must sum to 1 within this."""
+EXAMPLE_FRAME = Frame(["real", "noise"])
+"""The frame a kind's example section is built on at registration (``unknown`` is ``real|noise``)."""
 
 FocalResolver = Callable[[str], int]
 """Turns a focal set as written in YAML (an element, ``a|b``, an alias, ``""``) into its bitmask."""
@@ -76,6 +83,11 @@ Text = Annotated[str, Strict()]
 Name = Annotated[str, Strict(), StringConstraints(pattern=r"^[A-Za-z][A-Za-z0-9_-]{0,63}$")]
 Category = Annotated[str, Strict(), StringConstraints(pattern=r"^[^\x00-\x1f]{1,100}$")]
 Mass = Annotated[float, Field(strict=True, allow_inf_nan=False)]
+
+
+def _width(frame: Frame) -> int:
+    """Number of focal sets (columns of a dense batch) of a frame: ``2**n``."""
+    return 1 << len(frame)
 
 
 @runtime_checkable
@@ -163,38 +175,85 @@ Builder = Callable[[str, Spec, Frame, FocalResolver], EvidenceSource]
 
 @dataclass(frozen=True)
 class SourceKind:
-    """A registered kind of source: the model of its YAML section and its builder."""
+    """A kind of source: the model of its YAML section, its builder, and an example section.
+
+    ``example`` is a valid section on the frame :data:`EXAMPLE_FRAME` named ``existence``
+    (without ``kind``), built and checked at registration (``None``: the kind's sources are
+    checked only when a config builds them); ``origin`` says where the kind comes from
+    (``builtin``, or a plugin's entry point).
+    """
 
     name: str
     spec: type[SourceSpec]
     build: Builder[Any]
+    example: Mapping[str, Any] | None = None
+    origin: str = "builtin"
+
+    def build_example(self) -> EvidenceSource:
+        """The source of the example section, on :data:`EXAMPLE_FRAME`."""
+        if self.example is None:
+            raise ValueError(f"source kind {self.name!r} has no example section")
+        spec = self.spec.model_validate({"kind": self.name, **self.example})
+        return self.build(f"{self.name}_example", spec, EXAMPLE_FRAME, example_focal)
 
 
 KINDS: dict[str, SourceKind] = {}
 """Every kind of source, by the name used as ``kind:`` in YAML."""
 
 
-def register_kind(name: str, spec: type[Spec]) -> Callable[[Builder[Spec]], Builder[Spec]]:
-    """Register a kind of source under ``name`` (a decorator of its builder).
+def register_kind(
+    name: str, spec: type[Spec], example: Mapping[str, Any] | None = None, origin: str = "builtin"
+) -> Callable[[Builder[Spec]], Builder[Spec]]:
+    """Register a kind of source under ``name`` (a decorator of its builder), after checking it.
 
     The builder is called as ``build(name, spec, frame, focal)`` with the source's
     name, its validated ``spec`` (an instance of ``spec``), its frame, and a
     resolver of focal-set names to bitmasks; it returns an :class:`EvidenceSource`
-    and reports a bad section by raising :class:`SpecError`.
+    and reports a bad section by raising :class:`SpecError`. ``example`` is a
+    section on the frame ``existence`` (:data:`EXAMPLE_FRAME`): it is built, and
+    its source run through :func:`check_source`, before the kind is registered
+    (without one, the kind's sources are checked when a config builds them).
+
+    Raises
+    ------
+    ValueError
+        naming the kind, if the name is taken or its example fails the checks.
 
     Examples
     --------
     >>> {"table", "ramp"} <= set(KINDS)
     True
+
+    A kind whose rows sum to 2 is refused:
+
+    >>> @register_kind("doubled", SourceSpec, {"frame": "existence", "feature": "x"})
+    ... def build_doubled(name, spec, frame, focal):
+    ...     twice = lambda values: np.tile([0.0, 1.0, 1.0, 0.0], (len(values), 1))
+    ...     return BoundSource(name, frame, spec.feature, "doubled", twice, ("a",), "sums to 2")
+    Traceback (most recent call last):
+    ...
+    ValueError: source kind 'doubled': row 0 sums to 2, not 1 (within 1e-09)
     """
 
     def decorate(build: Builder[Spec]) -> Builder[Spec]:
         if name in KINDS:
             raise ValueError(f"source kind {name!r} is already registered")
-        KINDS[name] = SourceKind(name, spec, build)
+        kind = SourceKind(name, spec, build, example, origin)
+        try:
+            if example is not None:
+                source = kind.build_example()
+                check_source(source, getattr(source, "examples", ()))
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"source kind {name!r}: {exc}") from None
+        KINDS[name] = kind
         return build
 
     return decorate
+
+
+def example_focal(written: str) -> int:
+    """The focal-set resolver of :data:`EXAMPLE_FRAME`: elements, ``a|b``, ``unknown``, ``""``."""
+    return EXAMPLE_FRAME.mask({"unknown": "real|noise"}.get(written, written))
 
 
 def mass_row(
@@ -310,7 +369,16 @@ class TableSpec(SourceSpec):
     )
 
 
-@register_kind("table", TableSpec)
+@register_kind(
+    "table",
+    TableSpec,
+    {
+        "frame": "existence",
+        "feature": "relation",
+        "categories": ["outside", "inside"],
+        "table": {"outside": {"real": 0.8, "unknown": 0.2}, "inside": {"noise": 0.8, "unknown": 0.2}},
+    },
+)
 def build_table(name: str, spec: TableSpec, frame: Frame, focal: FocalResolver) -> BoundSource:
     """Build a table source; every declared category needs a row, and only those."""
     width = _width(frame)
@@ -356,7 +424,17 @@ class RampSpec(SourceSpec):
     )
 
 
-@register_kind("ramp", RampSpec)
+@register_kind(
+    "ramp",
+    RampSpec,
+    {
+        "frame": "existence",
+        "feature": "length",
+        "focal": "real",
+        "points": [[0, 0], [0.4, 0.6]],
+        "rest": {"unknown": 1},
+    },
+)
 def build_ramp(name: str, spec: RampSpec, frame: Frame, focal: FocalResolver) -> BoundSource:
     """Build a ramp source; break points strictly increasing in x, masses in [0, 1]."""
     try:
@@ -390,8 +468,3 @@ def build_ramp(name: str, spec: RampSpec, frame: Frame, focal: FocalResolver) ->
             + ", ".join(f"{k} {v:g}" for k, v in spec.rest.items())
         ),
     )
-
-
-def _width(frame: Frame) -> int:
-    """Number of focal sets (columns of a dense batch) of a frame: ``2**n``."""
-    return 1 << len(frame)

@@ -106,7 +106,9 @@ def test_a_bad_config_exits_2_naming_the_file(capsys, tmp_path):
 
 def test_a_config_no_sensor_can_feed_is_refused_before_the_run_naming_the_key(capsys, tmp_path):
     out = tmp_path / "out"
-    infrared = str(configs.path("examples/infrared.yaml"))
+    text = configs.path("examples/infrared.yaml").read_text()  # without the sensor `ir` that gives ir_return
+    infrared = str(tmp_path / "infrared.yaml")
+    Path(infrared).write_text(text[: text.index("extra_sensors:")] + text[text.index("\nsources:") :])
     code, stdout, stderr = evmap(capsys, "run", "--config", infrared, "--out", str(out))
     assert code == 2 and stdout == "" and not out.exists()
     assert stderr.startswith(f"evmap: error: {infrared}: sources.infrared.feature: reads feature 'ir_return'")

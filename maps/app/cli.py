@@ -20,6 +20,12 @@
 ``evmap config explain [FILE] --source NAME --value V``
     print what a source gives for one feature value, and what that combines to
     with each row of the other sources of its stages, under the config's rule.
+``evmap rules``
+    list the combination rules, built in or from installed plugins, with where
+    each comes from, and the plugins' rules that were refused and why.
+``evmap sources``
+    list the kinds of evidence sources and of sensors, built in or from plugins,
+    with where each comes from, and the refused ones.
 
 ``FILE`` defaults to the packaged ``configs/paper.yaml``. Normal output goes to
 standard output. A mistake in the input (a bad file, an unknown source, a value
@@ -40,7 +46,16 @@ from typing import Any
 
 from evmap.maps.app.compare import add_compare_parser
 
-__all__ = ["build_parser", "config_check", "config_explain", "log_command", "main", "run_command"]
+__all__ = [
+    "build_parser",
+    "config_check",
+    "config_explain",
+    "list_rules",
+    "list_sources",
+    "log_command",
+    "main",
+    "run_command",
+]
 
 Handler = Callable[[argparse.Namespace], int]
 
@@ -141,7 +156,51 @@ def build_parser() -> argparse.ArgumentParser:
         "--value", required=True, help="the feature value: a number for a ramp, a category for a table"
     )
     explain.set_defaults(handler=config_explain)
+
+    rules = commands.add_parser("rules", help="list the combination rules, built in or from plugins")
+    rules.set_defaults(handler=list_rules)
+    kinds = commands.add_parser("sources", help="list the kinds of evidence sources and sensors, built in or plugins")
+    kinds.set_defaults(handler=list_sources)
     return parser
+
+
+def list_rules(args: argparse.Namespace) -> int:
+    """``evmap rules``: every combination rule and where it comes from; refused plugin rules and why."""
+    from evidential import RULES
+    from evmap.sources.plugins import load_plugins, origin_of
+
+    refused = [p for p in load_plugins() if p.group == "evmap.rules" and p.problem]
+    out = ["rules (`rule:` in a config, `evmap run --rule NAME`):"]
+    width = max(map(len, RULES))
+    for name in sorted(RULES):
+        claimed = ", ".join(sorted(RULES[name].properties)) or "no properties claimed"
+        out.append(f"  {name:<{width}}  {origin_of('evmap.rules', name)}; {claimed}")
+    out += [f"refused: {p.name} from {p.origin}: {p.problem}" for p in refused]
+    print("\n".join(out))
+    return 0
+
+
+def list_sources(args: argparse.Namespace) -> int:
+    """``evmap sources``: every kind of evidence source and of sensor, where it comes from; refused plugins."""
+    from evmap.sources.evidence import KINDS
+    from evmap.sources.plugins import load_plugins, origin_of
+    from evmap.sources.sim.sensor_models import sensor_kinds
+
+    groups = ("evmap.source_kinds", "evmap.sensor_kinds")
+    refused = [p for p in load_plugins() if p.group in groups and p.problem]
+    sensors = sensor_kinds()
+    out = ["source kinds (`kind:` of a section under `sources`):"]
+    out += [f"  {name}  {origin_of('evmap.source_kinds', name)}" for name in sorted(KINDS)]
+    out.append("sensor kinds (`kind:` of a section under `extra_sensors`; NAME is the sensor's name):")
+    for name in sorted(sensors):
+        kind = sensors[name]
+        declared = kind.declares("NAME", kind.spec.model_validate(kind.example))
+        features = ", ".join(f"{f} {list(c) if c else '(a number)'}" for f, c in declared.items())
+        simulated = "simulated" if kind.simulate is not None else "not simulated: readings from logs or Python"
+        out += [f"  {name}  {kind.origin}; {simulated}: {kind.summary}", f"    features: {features}"]
+    out += [f"refused: {p.group.removeprefix('evmap.')} {p.name} from {p.origin}: {p.problem}" for p in refused]
+    print("\n".join(out))
+    return 0
 
 
 def run_command(args: argparse.Namespace) -> int:

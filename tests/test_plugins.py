@@ -1,0 +1,144 @@
+"""Plugins: the test package of tests/plugins seen through its entry points, by the CLI and by the rule suite.
+
+The package is made visible to ``importlib.metadata`` the way pip installs it, offline
+and at once: its module and a ``.dist-info`` (``METADATA``, ``entry_points.txt`` written
+from its ``pyproject.toml``) in a temporary folder put on ``PYTHONPATH``.
+"""
+
+import importlib
+import re
+import shutil
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from evidential import RULES
+from evmap import configs
+from evmap.sources.evidence import KINDS
+from evmap.sources.plugins import register_plugin
+from evmap.sources.sensor_kinds import SENSOR_KINDS
+
+PACKAGE = Path(__file__).parent / "plugins"
+README = configs.path("examples/README.md")
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    """A folder where the test package is installed, as pip would lay it out."""
+    target = tmp_path_factory.mktemp("site")
+    shutil.copytree(PACKAGE / "evmap_test_plugins", target / "evmap_test_plugins")
+    project = tomllib.loads((PACKAGE / "pyproject.toml").read_text())["project"]
+    info = target / f"evmap_test_plugins-{project['version']}.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {project['name']}\nVersion: {project['version']}\n")
+    groups = [
+        f"[{group}]\n" + "".join(f"{k} = {v}\n" for k, v in points.items())
+        for group, points in project["entry-points"].items()
+    ]
+    (info / "entry_points.txt").write_text("\n".join(groups))
+    return target
+
+
+def evmap_cli(site, *args, cwd=None):
+    """Run ``evmap ARGS`` in a fresh interpreter that sees the installed test package."""
+    paths = [str(site), *sys.path]
+    code = "import sys; from evmap.maps.app.cli import main; sys.exit(main(sys.argv[1:]))"
+    env = {"PYTHONPATH": ":".join(p for p in paths if p), "PATH": "/usr/bin:/bin"}
+    return subprocess.run(
+        [sys.executable, "-c", code, *args], check=False, capture_output=True, text=True, env=env, cwd=cwd
+    )
+
+
+def test_evmap_rules_lists_the_good_rule_and_refuses_the_broken_one_by_name(site):
+    done = evmap_cli(site, "rules")
+    assert done.returncode == 0, done.stderr
+    assert "average       evmap-test-plugins 0.1 (evmap_test_plugins:average); commutative, idempotent" in done.stdout
+    assert "  dempster      builtin;" in done.stdout
+    assert re.search(r"refused: doubled from evmap-test-plugins 0\.1 .*rule 'doubled' .*summing to 2", done.stdout)
+
+
+def test_evmap_sources_lists_plugin_kinds_with_their_origin(site):
+    done = evmap_cli(site, "sources")
+    assert done.returncode == 0, done.stderr
+    assert "  logistic  evmap-test-plugins 0.1 (evmap_test_plugins:LOGISTIC)" in done.stdout
+    assert "  bumper  evmap-test-plugins 0.1 (evmap_test_plugins:BUMPER); not simulated" in done.stdout
+    assert "    features: NAME_touched ['yes', 'no']" in done.stdout
+    assert re.search(r"refused: source_kinds overfull from .*source kind 'overfull': row 0 sums to 2", done.stdout)
+
+
+def test_evmap_run_uses_a_plugin_rule_and_refuses_the_broken_one(site, tmp_path):
+    done = evmap_cli(site, "run", "--rule", "average", "--out", str(tmp_path / "a"), "--no-figures")
+    assert done.returncode == 0, done.stderr
+    assert "with rule 'average'" in done.stderr
+    done = evmap_cli(site, "run", "--rule", "doubled", "--out", str(tmp_path / "b"), "--no-figures")
+    assert done.returncode == 2
+    assert "evmap: error: plugin 'doubled' of evmap-test-plugins 0.1" in done.stderr and "summing to 2" in done.stderr
+
+
+def test_a_config_uses_a_plugin_source_kind(site, tmp_path):
+    text = configs.path("paper.yaml").read_text()
+    ramp = text[text.index("  lsl_length:\n") : text.index("  lsl_repeat:")]
+    logistic = "  lsl_length:\n    kind: logistic\n    frame: existence\n    feature: length\n    focal: real\n"
+    logistic += "    top: 0.6\n    middle: 0.2\n    scale: 0.05\n\n"
+    (tmp_path / "logistic.yaml").write_text(text.replace(ramp, logistic))
+    done = evmap_cli(
+        site, "run", "--config", str(tmp_path / "logistic.yaml"), "--out", str(tmp_path / "o"), "--no-figures"
+    )
+    assert done.returncode == 0, done.stderr
+    assert "0 real lost" in done.stderr
+    (tmp_path / "overfull.yaml").write_text(
+        text.replace(ramp, "  lsl_length: {kind: overfull, frame: existence, feature: length}\n")
+    )
+    done = evmap_cli(site, "config", "check", str(tmp_path / "overfull.yaml"))
+    assert (
+        done.returncode == 2 and "sources.lsl_length.kind: plugin 'overfull' of evmap-test-plugins 0.1" in done.stderr
+    )
+
+
+@pytest.fixture
+def plugin_module(site, monkeypatch):
+    """The test package imported in this process; what it registers is removed afterwards."""
+    monkeypatch.syspath_prepend(str(site))
+    module = importlib.import_module("evmap_test_plugins")
+    yield module
+    for registry, name in ((RULES, "average"), (KINDS, "logistic"), (SENSOR_KINDS, "bumper")):
+        registry.pop(name, None)
+
+
+def test_the_plugin_rule_passes_the_rule_suite(plugin_module):
+    import test_engine_rules as suite
+
+    register_plugin("evmap.rules", "average", plugin_module.average, "tests")
+    for prop in sorted(RULES["average"].properties):
+        getattr(suite, f"test_{prop}")(name="average")
+    suite.test_result_is_a_valid_mass_function(name="average")
+    suite.test_bel_betp_pl_ordering_on_results(name="average")
+
+
+def test_the_broken_rule_is_refused_by_name_and_not_registered(plugin_module):
+    with pytest.raises(ValueError, match=r"rule 'doubled' refused: rule 'doubled' returned masses summing to 2"):
+        register_plugin("evmap.rules", "doubled", plugin_module.doubled, "tests")
+    assert "doubled" not in RULES
+
+
+def test_plugin_kinds_are_checked_at_registration(plugin_module):
+    register_plugin("evmap.source_kinds", "logistic", plugin_module.LOGISTIC, "tests")
+    assert KINDS["logistic"].origin == "tests"
+    with pytest.raises(ValueError, match="source kind 'overfull': row 0 sums to 2"):
+        register_plugin("evmap.source_kinds", "overfull", plugin_module.OVERFULL, "tests")
+    with pytest.raises(ValueError, match="must give a SourceKind named 'other' with an example"):
+        register_plugin("evmap.source_kinds", "other", plugin_module.LOGISTIC, "tests")
+    register_plugin("evmap.sensor_kinds", "bumper", plugin_module.BUMPER, "tests")
+    assert SENSOR_KINDS["bumper"].declares("b", SENSOR_KINDS["bumper"].spec(kind="bumper")) == {
+        "b_touched": ("yes", "no")
+    }
+
+
+def test_the_readme_shows_the_tested_plugin_package():
+    """Every file of the test package appears whole in configs/examples/README.md: the documented example is tested."""
+    readme = README.read_text()
+    for path in (PACKAGE / "pyproject.toml", PACKAGE / "evmap_test_plugins" / "__init__.py"):
+        assert path.read_text().strip() in readme, f"{path.name} is not shown whole in {README.name}"

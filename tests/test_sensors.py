@@ -1,0 +1,152 @@
+"""Sensors declared in YAML: the kinds' features, the simulators, readings from arrays and logs, the examples."""
+
+import json
+
+import numpy as np
+import pytest
+
+from evmap import configs
+from evmap.maps.app.cli import main
+from evmap.maps.app.run import run_scenario
+from evmap.maps.observation import observe
+from evmap.sources.config import config_from_data, load_config
+from evmap.sources.loading import InputError
+from evmap.sources.open_space import open_space
+from evmap.sources.rcd import extract_rcds
+from evmap.sources.relation import relation
+from evmap.sources.sensor_kinds import SENSOR_KINDS, features_from_arrays, read_readings
+from evmap.sources.sim.lsl import observe_lsl
+from evmap.sources.sim.scenario import default_scenario
+from evmap.sources.sim.sensor_models import sensor_kinds, sensor_rng
+from evmap.sources.sim.sonar import simulate_scan
+from evmap.sources.sim.world import World
+from evmap.sources.sim.worldgen import generate_world
+
+EXAMPLES = sorted(p.name for p in configs.path("examples").glob("*.yaml"))
+SONAR_AS_RANGE = {
+    "kind": "range",
+    "beams": 360,
+    "spacing_deg": 1.0,
+    "cone_deg": 25.0,
+    "max_range": 10.0,
+    "free_space": "rcd",
+    "echo": ["wall", "glass", "mirror"],
+}
+
+
+def with_sensors(sensors, name="test"):
+    """The infrared example with other extra_sensors."""
+    data = load_config(configs.path("examples/infrared.yaml")).to_data()
+    return config_from_data({**data, "extra_sensors": sensors}, name)
+
+
+def test_the_sonar_as_a_range_sensor_gives_table_1s_relation():
+    world, cfg = World(default_scenario()), load_config()
+    scan = simulate_scan(world.surfaces(), world.poses[0], cfg.sensors.sonar, rng=np.random.default_rng(1))
+    lsl = observe_lsl(world, 0, cfg.sensors.lsl)
+    built_in = relation(lsl.p, lsl.q, open_space(scan, extract_rcds(scan, cfg.rcd, primitive=True), cfg.open_space))
+    sonar = with_sensors({"sonar": SONAR_AS_RANGE}).extra_sensors["sonar"]
+    readings = {"pose": scan.pose, "angles": scan.angles, "ranges": np.where(scan.order == 0, np.inf, scan.ranges)}
+    got = sonar.features(readings, lsl.p, lsl.q)["sonar_relation"]
+    assert got.tolist() == built_in.tolist()
+    assert {"inside", "outside"} <= set(got.tolist())
+
+
+def test_a_range_ring_sees_walls_and_lets_glass_pass():
+    world = World(default_scenario())
+    ir = load_config(configs.path("examples/infrared.yaml")).extra_sensors["ir"]
+    lsl = observe_lsl(world, 0, load_config().sensors.lsl)
+    readings = ir.kind.simulate(world, 0, ir.spec, sensor_rng(world, 0, "ir"), lsl)
+    assert readings["angles"].shape == readings["ranges"].shape == (36,)
+    assert np.isfinite(readings["ranges"]).any() and (readings["ranges"][np.isfinite(readings["ranges"])] <= 3).all()
+    got = ir.features(readings, lsl.p, lsl.q)["ir_return"]
+    real = lsl.truth == "real"
+    assert (got[real] != "beyond").mean() > 0.9  # beams end on walls, not beyond them
+    assert "echo" in got[real].tolist()
+
+
+def test_simulated_readings_follow_the_seed_rule():
+    world = World(generate_world(3))
+    kind = sensor_kinds()["detector"]
+    spec = kind.spec.model_validate({"kind": "detector", "materials": ["wall"], "false_alarms": [[0, 0.5], [4, 0.5]]})
+    lsl = observe_lsl(world, 0, load_config().sensors.lsl)
+    first = kind.simulate(world, 0, spec, sensor_rng(world, 0, "radar"), lsl)
+    again = kind.simulate(world, 0, spec, sensor_rng(world, 0, "radar"), lsl)
+    other = kind.simulate(world, 0, spec, sensor_rng(world, 0, "radar2"), lsl)
+    assert np.array_equal(first["points"], again["points"])
+    assert not np.array_equal(first["points"], other["points"])
+
+
+SECTIONS = {
+    "range": {"kind": "range", "beams": 8, "cone_deg": 10, "max_range": 2.0},
+    "detector": {"kind": "detector", "materials": ["wall"]},
+    "contour_property": {"kind": "contour_property", "property": "w", "values": {"wall": [3, 1], "sunlight": [8, 2]}},
+}
+
+
+@pytest.mark.parametrize("name", sorted(SECTIONS))
+def test_sensor_kind_conformance(name):
+    """Every simulated kind: one valid value per segment, deterministic, one segment alone as in the batch."""
+    world = World(default_scenario())
+    kind = sensor_kinds()[name]
+    sensor = with_sensors({"s": SECTIONS[name]}).extra_sensors["s"]
+    lsl = observe_lsl(world, 0, load_config().sensors.lsl)
+    readings = kind.simulate(world, 0, sensor.spec, sensor_rng(world, 0, "s"), lsl)
+    batch = sensor.features(readings, lsl.p, lsl.q)
+    assert set(batch) == set(sensor.declares())
+    for feature, values in batch.items():
+        assert values.shape == (len(lsl),)
+        assert np.array_equal(values, sensor.features(readings, lsl.p, lsl.q)[feature])
+        for i in range(0, len(lsl), 7):
+            assert sensor.features(readings, lsl.p[i : i + 1], lsl.q[i : i + 1])[feature][0] == values[i]
+
+
+def test_readings_from_a_log_give_the_features_of_the_run(tmp_path):
+    """The same arrays, saved as a log and read back, make the same observation features as the simulation."""
+    world, cfg = World(default_scenario()), load_config(configs.path("examples/radar.yaml"))
+    obs = observe(world, 0, cfg)
+    radar = cfg.extra_sensors["radar"]
+    readings = radar.kind.simulate(world, 0, radar.spec, sensor_rng(world, 0, "radar"), obs.lsl)
+    np.savez(tmp_path / "pose0.npz", **{f"radar/{k}": v for k, v in readings.items()})
+    features = features_from_arrays(cfg.extra_sensors, read_readings(tmp_path / "pose0.npz"), obs.lsl.p, obs.lsl.q)
+    assert features["radar_detection"].tolist() == np.asarray(obs.features["radar_detection"]).tolist()
+
+
+def test_bad_readings_and_sections_are_refused_by_name():
+    cfg = load_config(configs.path("examples/radar.yaml"))
+    with pytest.raises(ValueError, match=r"sensor 'radar': readings 'points' must have shape \('D', 2\)"):
+        features_from_arrays(
+            cfg.extra_sensors, {"radar": {"pose": np.zeros(3), "points": np.zeros(4)}}, [[0, 0]], [[1, 0]]
+        )
+    with pytest.raises(ValueError, match=r"missing \['radar'\]"):
+        features_from_arrays(cfg.extra_sensors, {}, [[0, 0]], [[1, 0]])
+    with pytest.raises(InputError, match=r"extra_sensors\.ir\.kind: unknown sensor kind 'lidar'"):
+        with_sensors({"ir": {"kind": "lidar"}})
+    with pytest.raises(InputError, match=r"extra_sensors\.ir\.cone_deg"):
+        with_sensors({"ir": {"kind": "range", "cone_deg": -1}})
+    with pytest.raises(InputError, match=r"sources\.infrared\.categories: feature 'ir_return' takes the categories"):
+        data = load_config(configs.path("examples/infrared.yaml")).to_data()
+        data["sources"]["infrared"]["categories"] = ["echo", "beyond"]
+        data["sources"]["infrared"]["table"].pop("no_return")
+        config_from_data(data, "x")
+
+
+def test_builtin_kinds_are_registered_once():
+    assert {"range", "detector", "contour_property"} <= set(SENSOR_KINDS)
+
+
+@pytest.mark.parametrize("example", EXAMPLES)
+def test_every_example_config_runs_end_to_end(example, tmp_path, capsys):
+    path = configs.path(f"examples/{example}")
+    assert main(["run", "--config", str(path), "--out", str(tmp_path), "--no-figures", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["noise_eliminated"] == summary["noise_segments"] == 28 and summary["real_eliminated"] == 0
+
+
+@pytest.mark.parametrize("example", ["infrared.yaml", "stripe_width.yaml"])
+def test_an_example_sensor_changes_noise_elimination_on_a_generated_world(example):
+    world = generate_world(1000)
+    paper = run_scenario(world, load_config()).map.segments
+    extra = run_scenario(world, load_config(configs.path(f"examples/{example}"))).map.segments
+    noise = paper.truth == "noise"
+    assert (extra.eliminated & noise).sum() > (paper.eliminated & noise).sum()
