@@ -74,6 +74,7 @@ __all__ = [
     "MAX_FRAME_ELEMENTS",
     "MAX_SOURCES",
     "MAX_STAGE_SOURCES",
+    "PACKAGED_CONFIGS",
     "PARAMETER_SECTIONS",
     "PIPELINE_FEATURES",
     "STAGES",
@@ -85,6 +86,7 @@ __all__ = [
     "StagesSpec",
     "check_simulated_run",
     "config_from_data",
+    "config_path",
     "load_config",
 ]
 
@@ -290,8 +292,29 @@ class Config:
         return dataclasses.replace(self, rule=rule)
 
 
+PACKAGED_CONFIGS = ("paper", "default")
+"""The configs evmap ships, by name: ``paper`` (the paper's method) and ``default`` (with the evidence beyond it)."""
+
+
+def config_path(name: str | Path) -> Path:
+    """The file of a config given by path, or by the name of a packaged config (:data:`PACKAGED_CONFIGS`).
+
+    >>> config_path("paper").name, config_path("configs/paper.yaml").as_posix()
+    ('paper.yaml', 'configs/paper.yaml')
+    """
+    path = Path(name)
+    if isinstance(name, str) and name in PACKAGED_CONFIGS and not path.exists():
+        return configs.path(f"{name}.yaml")
+    if not path.exists() and not path.suffix:
+        raise InputError(
+            f"{name}: no such config file, nor a packaged config (those are {', '.join(PACKAGED_CONFIGS)})"
+        )
+    return path
+
+
 def load_config(path: str | Path | None = None) -> Config:
-    """Read, validate and build a config file; ``None`` reads the packaged ``configs/paper.yaml``.
+    """Read, validate and build a config file (a path, or a packaged config's name: ``paper``, ``default``);
+    ``None`` reads the packaged ``configs/paper.yaml``.
 
     Raises
     ------
@@ -305,8 +328,10 @@ def load_config(path: str | Path | None = None) -> Config:
     ('dempster', 0.5, 0.05)
     >>> cfg.sources["lsl_length"].masses({"length": [0.2]}).round(3).tolist()
     [[0.0, 0.3, 0.0, 0.7]]
+    >>> sorted(load_config("default").stages) == sorted(cfg.stages)
+    True
     """
-    document = read_document(configs.path("paper.yaml") if path is None else Path(path))
+    document = read_document(configs.path("paper.yaml") if path is None else config_path(path))
     return _build_checked(document.validate(ConfigFile), document.name, document)
 
 

@@ -112,7 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = commands.add_parser("run", help="run the paper's experiment on a scenario and write its artefacts")
     run.add_argument("scenario", nargs="?", help="scenario file (default: the embedded corridor of the paper)")
-    run.add_argument("--config", help="config file (default: the packaged configs/paper.yaml)")
+    run.add_argument("--config", help="config file, or a packaged config by name: paper, default (default: paper)")
     run.add_argument("--rule", help="combination rule, overriding the config's (a name in evidential.RULES)")
     run.add_argument("--out", default="out", help="directory for the artefacts (default: out)")
     run.add_argument("--force", action="store_true", help="replace the directory if it is not empty")
@@ -125,7 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     log = commands.add_parser("log", help="map a robot log (CARMEN, g2o, ROS bag) and write the run's artefacts")
     log.add_argument("file", help="the log: *.log, *.clf (gzipped or not), *.g2o, *.bag or a ROS 2 bag directory")
-    log.add_argument("--config", help="config file (default: the packaged configs/paper.yaml)")
+    log.add_argument("--config", help="config file, or a packaged config by name: paper, default (default: paper)")
     log.add_argument("--rule", help="combination rule, overriding the config's (a name in evidential.RULES)")
     log.add_argument("--out", default="out", help="directory for the artefacts (default: out)")
     log.add_argument("--every", type=int, default=1, help="use every N-th laser scan (default: 1, all)")
@@ -144,13 +144,17 @@ def build_parser() -> argparse.ArgumentParser:
     actions = config.add_subparsers(title="actions", metavar="ACTION")
 
     check = actions.add_parser("check", help="validate a config and print it as understood")
-    check.add_argument("file", nargs="?", help="config file (default: the packaged configs/paper.yaml)")
+    check.add_argument(
+        "file", nargs="?", help="config file, or a packaged config by name: paper, default (default: paper)"
+    )
     check.set_defaults(handler=config_check)
 
     explain = actions.add_parser(
         "explain", help="show what a source gives for a value and what it combines to in its stages"
     )
-    explain.add_argument("file", nargs="?", help="config file (default: the packaged configs/paper.yaml)")
+    explain.add_argument(
+        "file", nargs="?", help="config file, or a packaged config by name: paper, default (default: paper)"
+    )
     explain.add_argument("--source", required=True, help="name of a source of the config")
     explain.add_argument(
         "--value", required=True, help="the feature value: a number for a ramp, a category for a table"
