@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from pydantic import BaseModel
 
 from evidential import Frame, TotalConflictError, combine_batch
-from evmap.maps.app.artefacts import prepare_out, write_artefacts
+from evmap.maps.app.artefacts import prepare_out, write_staged
 from evmap.maps.app.compare import add_compare_parser
 from evmap.maps.app.run import run_scenario
 from evmap.sources.config import PARAMETER_SECTIONS, Config, SensorsParams, load_config
@@ -109,9 +109,9 @@ def run_command(args: argparse.Namespace) -> int:
     if args.rule:
         cfg = cfg.with_rule(args.rule)
     scenario = load_scenario(args.scenario) if args.scenario else default_scenario()
-    prepare_out(args.out, args.force)
-    print(f"evmap: running scenario {scenario.name!r} with rule {cfg.rule!r}", file=sys.stderr)
-    summary = write_artefacts(run_scenario(scenario, cfg), args.out, force=args.force)
+    with prepare_out(args.out, args.force) as staging:  # --out checked and claimed before the work
+        print(f"evmap: running scenario {scenario.name!r} with rule {cfg.rule!r}", file=sys.stderr)
+        summary = write_staged(run_scenario(scenario, cfg), staging)
     kept = summary["noise_segments"] - summary["noise_eliminated"]
     print(
         f"evmap: {summary['noise_eliminated']} of {summary['noise_segments']} phantom lines eliminated "

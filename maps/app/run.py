@@ -11,8 +11,7 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
+from evmap.maps.app.metrics import share
 from evmap.maps.belief_map import BeliefMap
 from evmap.maps.observation import Observation, observe
 from evmap.maps.pipeline import PoseOutcome, new_map
@@ -85,8 +84,8 @@ def report(run: Run) -> dict[str, Any]:
         "rcds_simulated": sum(len(o.predicted) for o in run.outcomes),
         "rcds_matched": sum(len(o.matched[0]) for o in run.outcomes),
         "unidentified": kinds.count("unidentified"),
-        "noise_recall": _share(store.eliminated & noise, noise),
-        "real_loss": _share(store.eliminated & real, real),
+        "noise_recall": share(store.eliminated & noise, noise),
+        "real_loss": share(store.eliminated & real, real),
         "seconds": dict(run.seconds),
     }
 
@@ -109,9 +108,3 @@ def segment_records(run: Run) -> list[dict[str, Any]]:
         }
         for i in range(len(store))
     ]
-
-
-def _share(part: np.ndarray, whole: np.ndarray) -> float:
-    """part / whole as a fraction of counts; 0 when whole is empty."""
-    n = int(whole.sum())
-    return int(part.sum()) / n if n else 0.0
