@@ -23,7 +23,6 @@ import logging
 import os
 import signal
 import sys
-import threading
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -245,19 +244,6 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-@contextmanager
-def _no_sigint_inherited() -> Iterator[None]:
-    """Ignore SIGINT while child processes start, so that they inherit ``SIG_IGN`` (Ctrl-C reaches only us)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old)
-
-
 def _wait_local(futures: list[Any]) -> set[Any]:
     done, _ = concurrent.futures.wait(futures, timeout=0.5, return_when=concurrent.futures.FIRST_COMPLETED)
     return done
@@ -293,10 +279,14 @@ def _executor(scheduler: str | None, workers: int | None) -> Iterator[tuple[Any,
     from distributed import Client, LocalCluster
 
     if scheduler is None:
-        with _no_sigint_inherited():
-            cluster = LocalCluster(
-                n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
-            )
+        cluster = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+            preload=["evmap.maps.app.compare_worker"],  # Ctrl-C is left to this process
+        )
         client = Client(cluster)
     else:
         cluster = None
