@@ -20,12 +20,15 @@ from __future__ import annotations
 import concurrent.futures
 import functools
 import logging
+import multiprocessing
 import os
 import signal
+import subprocess
 import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from subprocess import DEVNULL
 from typing import Any
 
 from evidential import RULES
@@ -196,7 +199,6 @@ def iter_results(
             return
         bar.set_postfix_str("starting workers", refresh=True)
         with _executor(scheduler, workers) as (pool, wait, slots):
-            bar.set_postfix_str("", refresh=True)
             size = batch_size(worlds, slots)
             starts = iter(range(0, worlds, size))
             pending: dict[Any, int] = {}
@@ -211,6 +213,7 @@ def iter_results(
                 for future in wait(list(pending)):
                     done[pending.pop(future)] = future.result()
                 while following in done:
+                    bar.set_postfix_str("", refresh=False)
                     batch = done.pop(following)
                     yield from batch
                     bar.update(len(batch))
@@ -238,9 +241,12 @@ def run_comparison(rules: Sequence[str], worlds: int, seed: int, **options: Any)
 
 # --------------------------------------------------------------------- executors
 
+WORKER_DEATH_TIMEOUT = 20
+"""Seconds a local worker outlives a scheduler it cannot reach (this process killed)."""
+
 
 def _ignore_sigint() -> None:
-    """In a worker: leave Ctrl-C to the main process, which shuts the workers down."""
+    """In a worker of the ``processes`` pool: leave Ctrl-C to the main process, which shuts the pool down."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
@@ -265,40 +271,74 @@ def _executor(scheduler: str | None, workers: int | None) -> Iterator[tuple[Any,
     if scheduler == "threads":
         with concurrent.futures.ThreadPoolExecutor(n) as pool:
             yield pool, _wait_local, n
-        return
-    if scheduler == "processes":
-        import multiprocessing
-
+    elif scheduler == "processes":
         context = multiprocessing.get_context("spawn")
         pool = concurrent.futures.ProcessPoolExecutor(n, mp_context=context, initializer=_ignore_sigint)
         try:
             yield pool, _wait_local, n
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
-        return
-    from distributed import Client, LocalCluster
-
-    if scheduler is None:
-        cluster = LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            silence_logs=logging.ERROR,
-            preload=["evmap.maps.app.compare_worker"],  # Ctrl-C is left to this process
-        )
-        client = Client(cluster)
+    elif scheduler is None:
+        with _local_cluster(n) as client:
+            yield client, _wait_dask, n
     else:
-        cluster = None
+        from distributed import Client
+
         try:
             client = Client(scheduler, timeout=CONNECT_TIMEOUT)
         except (OSError, TimeoutError, ValueError) as exc:
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise ValueError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({reason})") from None
+        try:
+            yield client, _wait_dask, sum(client.nthreads().values()) or 1
+        finally:
+            client.close()
+
+
+@contextmanager
+def _local_cluster(n: int) -> Iterator[Any]:
+    """A Dask scheduler in this process and ``n`` single-threaded ``dask worker`` processes, a client to them.
+
+    The workers run in their own session: Ctrl-C (sent to the terminal's
+    foreground process group) reaches only this process, which then stops them.
+    Tasks queue at the scheduler while the workers start.
+    """
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(
+        n_workers=0,
+        processes=False,
+        protocol="tcp",
+        host="127.0.0.1",
+        scheduler_port=0,
+        dashboard_address=None,
+        silence_logs=logging.ERROR,
+    )
+    command = [
+        sys.executable,
+        "-m",
+        "distributed.cli.dask_worker",
+        cluster.scheduler_address,
+        "--nthreads=1",
+        "--no-nanny",
+        "--no-dashboard",
+        f"--death-timeout={WORKER_DEATH_TIMEOUT}",
+    ]
+    procs: list[subprocess.Popen[bytes]] = []
     try:
-        slots = sum(client.nthreads().values()) or 1
-        yield client, _wait_dask, slots
+        for _ in range(n):
+            procs.append(
+                subprocess.Popen(command, stdin=DEVNULL, stdout=DEVNULL, stderr=DEVNULL, start_new_session=True)
+            )
+        with Client(cluster) as client:
+            yield client
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        for proc in procs:
+            proc.terminate()
+        for proc in procs:
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        cluster.close()
