@@ -224,7 +224,9 @@ def line_beliefs(run: Run) -> tuple[NDArray[np.float64], NDArray[np.str_]]:
     """
     store = run.map.segments
     by_line = {line.id: line.belief for line in run.map.lines(min_belief=0.0)}
-    belief = np.array([by_line.get(lid, 0.0) if not gone else 0.0 for lid, gone in zip(store.line, store.eliminated)])
+    ids, which = np.unique(store.line.astype(str), return_inverse=True)
+    belief = np.array([by_line.get(i, 0.0) for i in ids], dtype=float)[which.reshape(-1)]
+    belief[store.eliminated] = 0.0
     return belief.reshape(-1), store.truth.copy()
 
 
