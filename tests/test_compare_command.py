@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from evmap.maps.app.cli import main
-from evmap.maps.app.compare import COLUMNS, METRICS, SUMMARY_COLUMNS, iter_results, run_comparison
+from evmap.maps.app.compare import COLUMNS, METRICS, SUMMARY_COLUMNS, iter_results, run_comparison, write_comparison
 from evmap.maps.app.compare_plots import PLOT_FILES
 from evmap.maps.app.staging import MARKER
 
@@ -106,3 +106,18 @@ def test_ctrl_c_stops_the_cluster_cleanly_with_one_line_and_exit_130(tmp_path):
     assert err.rstrip().splitlines()[-1] == f"evmap: interrupted; nothing written to {out}"
     assert "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_write_comparison_writes_a_gathered_comparison_like_the_command(tmp_path, written):
+    comparison = run_comparison(["dempster", "yager", "dubois_prade"], 3, 2, scheduler="synchronous", progress=False)
+    write_comparison(comparison, tmp_path)
+    for name in ("summary.csv", "worlds.csv"):
+        mine, theirs = (list(csv.DictReader((d / name).open())) for d in (tmp_path, written))
+        assert [_untimed(r) for r in mine] == [_untimed(r) for r in theirs]
+    assert sorted(p.name for p in (tmp_path / "worlds").iterdir()) == sorted(
+        p.name for p in (written / "worlds").iterdir()
+    )
+
+
+def _untimed(row):
+    return {k: v for k, v in row.items() if not k.startswith("seconds")}

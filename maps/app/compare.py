@@ -78,6 +78,7 @@ __all__ = [
     "compare_command",
     "compare_world",
     "fuse_rules",
+    "iter_results",
     "line_beliefs",
     "map_error",
     "run_comparison",
