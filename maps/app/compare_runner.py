@@ -314,6 +314,7 @@ def _local_cluster(n: int) -> Iterator[Any]:
     foreground process group) reaches only this process, which then stops them.
     Tasks queue at the scheduler while the workers start.
     """
+    import dask
     from distributed import Client, LocalCluster
 
     cluster = LocalCluster(
@@ -335,11 +336,16 @@ def _local_cluster(n: int) -> Iterator[Any]:
         "--no-dashboard",
         f"--death-timeout={WORKER_DEATH_TIMEOUT}",
     ]
+    # what Dask's nanny sets for its workers: one BLAS thread each, freed memory returned to the system
+    spawn_environ = dask.config.get("distributed.nanny.pre-spawn-environ")
+    env = {**os.environ, **{key: str(value) for key, value in spawn_environ.items()}}
     procs: list[subprocess.Popen[bytes]] = []
     try:
         for _ in range(n):
             procs.append(
-                subprocess.Popen(command, stdin=DEVNULL, stdout=DEVNULL, stderr=DEVNULL, start_new_session=True)
+                subprocess.Popen(
+                    command, env=env, stdin=DEVNULL, stdout=DEVNULL, stderr=DEVNULL, start_new_session=True
+                )
             )
         with Client(cluster) as client:
             yield client
