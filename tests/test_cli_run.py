@@ -11,12 +11,13 @@ from evidential import RULES
 from evmap import configs
 from evmap.maps.app.cli import main
 from evmap.maps.app.figures import FIGURE_FILES
+from evmap.maps.app.staging import MARKER
 
 SCENARIOS = Path(__file__).parent / "scenarios"
 SMALL = str(SCENARIOS / "pipeline_small.yaml")
 BAD_CONFIG = str(Path(__file__).parent / "configs" / "bad_sum.yaml")
 
-ARTEFACTS = {"report.json", "segments.json", "map.json"}
+ARTEFACTS = {"report.json", "segments.json", "map.json", MARKER}  # evmap marks the directories it writes
 FIGURES = set(FIGURE_FILES)  # their names are pinned by tests/test_figures.py
 
 
@@ -75,15 +76,18 @@ def test_a_non_empty_directory_is_refused_without_force_and_left_untouched(capsy
     assert [p.name for p in tmp_path.iterdir()] == ["out"]
 
 
-def test_force_replaces_a_non_empty_directory(capsys, tmp_path):
+def test_force_replaces_a_directory_evmap_wrote_and_nothing_else(capsys, tmp_path):
     out = tmp_path / "out"
-    out.mkdir()
-    (out / "notes.txt").write_text("mine")
-    code, _, stderr = evmap(capsys, "run", SMALL, "--out", str(out), "--force")
+    assert evmap(capsys, "run", SMALL, "--out", str(out))[0] == 0
+    code, _, stderr = evmap(capsys, "run", SMALL, "--rule", "yager", "--out", str(out), "--force")
     assert code == 0, stderr
     assert {p.name for p in out.iterdir()} == ARTEFACTS | FIGURES
-    assert json.loads((out / "report.json").read_text())["scenario"] == "pipeline-small"
+    assert json.loads((out / "report.json").read_text())["rule"] == "yager"
     assert [p.name for p in tmp_path.iterdir()] == ["out"]
+    (out / "notes.txt").write_text("mine")
+    code, _, stderr = evmap(capsys, "run", SMALL, "--out", str(out), "--force")
+    assert code == 2 and "notes.txt" in stderr and "Traceback" not in stderr
+    assert (out / "notes.txt").read_text() == "mine" and (out / "report.json").exists()
 
 
 def test_an_unknown_rule_exits_2_naming_the_known_rules(capsys, tmp_path):
@@ -123,3 +127,17 @@ def test_the_rule_option_reaches_the_report_and_the_map(capsys, tmp_path):
     assert json.loads(stdout) == json.loads((out / "report.json").read_text())
     assert json.loads(stdout)["rule"] == "yager"
     assert json.loads((out / "map.json").read_text())["graph"]["rule"] == "yager"
+
+
+def test_the_command_line_starts_without_the_heavy_libraries():
+    code = (
+        "import sys; from evmap.maps.app.cli import build_parser; build_parser();"
+        "print(sorted(m for m in ('numpy', 'scipy', 'shapely', 'networkx', 'matplotlib', 'dask', 'pydantic')"
+        " if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+    version = subprocess.run(
+        [sys.executable, "-m", "evmap.maps.app.cli", "--version"], capture_output=True, text=True, check=False
+    )
+    assert version.returncode == 0 and version.stdout.startswith("evmap ")

@@ -10,7 +10,7 @@ from evmap.maps.app.cli import main
 from evmap.maps.app.figures import FIGURE_FILES
 
 SMALL = str(Path(__file__).parent / "scenarios" / "pipeline_small.yaml")
-ARTEFACTS = {"report.json", "segments.json", "map.json"}
+ARTEFACTS = {"report.json", "segments.json", "map.json", ".evmap-out"}  # the marker: evmap wrote the directory
 
 
 @pytest.mark.parametrize(

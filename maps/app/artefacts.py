@@ -1,68 +1,50 @@
 """Writing a run's artefacts (``docs/SCENARIO.md``) into a directory, all or nothing.
 
-Everything is written into a temporary directory beside the target and moved
-into place at the end, so a failed run leaves no directory behind, and an
-existing directory is only replaced (with ``force``) once the new one is complete.
+The directory is claimed and staged by :mod:`evmap.maps.app.staging`: checked
+before the work, written beside it, moved into place at the end; ``force``
+replaces only a directory evmap wrote.
 """
 
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import tempfile
+from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import Any
 
 from evmap.maps.app.figures import write_figures
 from evmap.maps.app.run import Run, report, segment_records
+from evmap.maps.app.staging import RUN_LAYOUT, Staging, claim_output, write_text_atomic
 
-__all__ = ["prepare_out", "write_artefacts"]
+__all__ = ["prepare_out", "write_artefacts", "write_staged"]
 
 
-def prepare_out(out: str | Path, force: bool) -> Path:
-    """Check that ``out`` may receive a run: absent, an empty directory, or ``force``; return it.
+def prepare_out(out: str | Path, force: bool) -> AbstractContextManager[Staging]:
+    """Check and claim ``out`` for a run before the work starts (:func:`evmap.maps.app.staging.claim_output`).
 
-    Raises ValueError naming the directory otherwise, before any work starts.
+    Use as ``with prepare_out(out, force) as staging: ... write_staged(run, staging)``;
+    raises :class:`~evmap.maps.app.staging.OutputError` naming the directory if it cannot receive the run.
     """
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out}: exists and is not a directory")
-    if out.is_dir() and any(out.iterdir()) and not force:
-        raise ValueError(f"--out {out}: directory is not empty (use --force to replace it)")
-    return out
+    return claim_output(out, force=force, layout=RUN_LAYOUT)
+
+
+def write_staged(run: Run, staging: Staging, *, figures: bool = True, figure_format: str = "png") -> dict[str, Any]:
+    """Write ``report.json``, ``segments.json``, ``map.json`` (and for a robot log the ROS ``map.pgm`` +
+    ``map.yaml``) and the figures (as ``figure_format``) into the staging; return the report."""
+    summary = report(run)
+    write_text_atomic(staging.path / "report.json", json.dumps(summary, indent=2) + "\n")
+    write_text_atomic(staging.path / "segments.json", json.dumps(segment_records(run)) + "\n")
+    run.map.save(staging.path / "map.json")
+    if run.log is not None:  # a map of a robot log: the ROS map_server pair too
+        run.map.save_ros_map(staging.path / "map")
+    if figures:
+        write_figures(run, staging.path, figure_format)
+    return summary
 
 
 def write_artefacts(
     run: Run, out: str | Path, *, force: bool = False, figures: bool = True, figure_format: str = "png"
 ) -> dict[str, Any]:
-    """Write ``report.json``, ``segments.json``, ``map.json`` and the figures (as ``figure_format``) into ``out``;
-    return the report."""
-    out = prepare_out(out, force)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
-        summary = report(run)
-        (staging / "report.json").write_text(json.dumps(summary, indent=2) + "\n")
-        (staging / "segments.json").write_text(json.dumps(segment_records(run)) + "\n")
-        run.map.save(staging / "map.json")
-        if run.log is not None:  # a map of a robot log: the ROS map_server pair too
-            run.map.save_ros_map(staging / "map")
-        if figures:
-            write_figures(run, staging, figure_format)
-        _move_into_place(staging, out)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
-    return summary
-
-
-def _move_into_place(staging: Path, out: Path) -> None:
-    """Rename the finished staging directory to ``out``, replacing what was there."""
-    old = None
-    if out.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
-        os.replace(out, old / out.name)
-    os.replace(staging, out)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+    """Write a run's artefacts into ``out``, all or nothing (claim, stage, move); return the report."""
+    with prepare_out(out, force) as staging:
+        return write_staged(run, staging, figures=figures, figure_format=figure_format)

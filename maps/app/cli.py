@@ -44,7 +44,7 @@ from collections.abc import Callable, Iterable, Sequence
 from importlib.metadata import PackageNotFoundError, version
 from typing import Any
 
-from evmap.maps.app.compare import add_compare_parser
+from evmap.maps.app.compare_args import add_compare_parser
 
 __all__ = [
     "build_parser",
@@ -209,7 +209,7 @@ def list_sources(args: argparse.Namespace) -> int:
 
 def run_command(args: argparse.Namespace) -> int:
     """``evmap run``: the paper's experiment on a scenario, its artefacts written all or nothing."""
-    from evmap.maps.app.artefacts import prepare_out, write_artefacts
+    from evmap.maps.app.artefacts import prepare_out, write_staged
     from evmap.maps.app.run import run_scenario
     from evmap.sources.config import check_simulated_run, load_config
     from evmap.sources.sim.scenario import default_scenario, load_scenario
@@ -219,15 +219,11 @@ def run_command(args: argparse.Namespace) -> int:
     if args.rule:
         cfg = cfg.with_rule(args.rule)
     scenario = load_scenario(args.scenario) if args.scenario else default_scenario()
-    prepare_out(args.out, args.force)
-    print(f"evmap: running scenario {scenario.name!r} with rule {cfg.rule!r}", file=sys.stderr)
-    summary = write_artefacts(
-        run_scenario(scenario, cfg),
-        args.out,
-        force=args.force,
-        figures=args.figures != "none",
-        figure_format=args.figures,
-    )
+    with prepare_out(args.out, args.force) as staging:  # --out checked and claimed before the work
+        print(f"evmap: running scenario {scenario.name!r} with rule {cfg.rule!r}", file=sys.stderr)
+        summary = write_staged(
+            run_scenario(scenario, cfg), staging, figures=args.figures != "none", figure_format=args.figures
+        )
     kept = summary["noise_segments"] - summary["noise_eliminated"]
     print(
         f"evmap: {summary['noise_eliminated']} of {summary['noise_segments']} phantom lines eliminated "
@@ -246,23 +242,21 @@ def log_command(args: argparse.Namespace) -> int:
     """``evmap log FILE``: a belief map from a robot log, its artefacts written all or nothing."""
     from tqdm import tqdm
 
-    from evmap.maps.app.artefacts import prepare_out, write_artefacts
+    from evmap.maps.app.artefacts import prepare_out, write_staged
     from evmap.maps.app.log_run import run_log
     from evmap.sources.config import load_config
 
     cfg = load_config(args.config)
     if args.rule:
         cfg = cfg.with_rule(args.rule)
-    prepare_out(args.out, args.force)
-    print(f"evmap: mapping log {args.file} with rule {cfg.rule!r}", file=sys.stderr)
 
     def bar(records: Iterable[Any]) -> Iterable[Any]:
         return tqdm(records, desc="scans", unit="scan", file=sys.stderr, total=args.limit, leave=False)
 
-    run = run_log(args.file, cfg, every=args.every, limit=args.limit, progress=bar)
-    summary = write_artefacts(
-        run, args.out, force=args.force, figures=args.figures != "none", figure_format=args.figures
-    )
+    with prepare_out(args.out, args.force) as staging:  # --out checked and claimed before the work
+        print(f"evmap: mapping log {args.file} with rule {cfg.rule!r}", file=sys.stderr)
+        run = run_log(args.file, cfg, every=args.every, limit=args.limit, progress=bar)
+        summary = write_staged(run, staging, figures=args.figures != "none", figure_format=args.figures)
     fit = summary["line_fit"]
     coverage = "n/a" if fit["coverage_mean"] is None else f"{fit['coverage_mean']:.3f}"
     error = "n/a" if fit["rms_error_median"] is None else f"{100 * fit['rms_error_median']:.2f} cm"

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from evmap.maps import new_map
+from evmap.maps.app.metrics import share
 from evmap.maps.belief_map import BeliefMap
 from evmap.maps.observation import Observation, observe
 from evmap.maps.pipeline import PoseOutcome
@@ -114,8 +115,8 @@ def report(run: Run) -> dict[str, Any]:
         "rcds_simulated": sum(len(o.predicted) for o in run.outcomes),
         "rcds_matched": sum(len(o.matched[0]) for o in run.outcomes),
         "unidentified": kinds.count("unidentified"),
-        "noise_recall": _share(store.eliminated & noise, noise),
-        "real_loss": _share(store.eliminated & real, real),
+        "noise_recall": share(store.eliminated & noise, noise),
+        "real_loss": share(store.eliminated & real, real),
         "seconds": dict(run.seconds),
     }
 
@@ -174,9 +175,3 @@ def _log_report(run: Run, log: LogSummary) -> dict[str, Any]:
         "line_fit": {"coverage_mean": log.coverage_mean, "rms_error_median": log.rms_error_median},
         "seconds": {"total": run.seconds["total"], "per_scan_median": log.per_scan_median},
     }
-
-
-def _share(part: np.ndarray, whole: np.ndarray) -> float:
-    """part / whole as a fraction of counts; 0 when whole is empty."""
-    n = int(whole.sum())
-    return int(part.sum()) / n if n else 0.0

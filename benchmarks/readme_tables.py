@@ -1,0 +1,93 @@
+"""Print the README's result tables from a rerun, so that the README matches what the code gives.
+
+Reruns every packaged scenario (``configs/scenarios/``, ``evmap run``) and the rule
+comparison (``evmap compare --worlds 200 --seed 1``), and prints the two Markdown
+tables of the README's "Other scenarios" and "Rules on 200 generated worlds"
+sections. The comparison's numbers do not depend on the scheduler (rows are
+gathered in world order), only its timings do.
+
+    .venv/bin/python benchmarks/readme_tables.py [--worlds 200] [--seed 1] [--scheduler ADDRESS]
+"""
+
+from __future__ import annotations
+
+import argparse
+from importlib.resources import files
+
+from evmap.maps.app.compare import DEFAULT_RULES, Comparison, run_comparison
+from evmap.maps.app.run import report, run_scenario
+from evmap.sources.config import load_config
+from evmap.sources.sim.scenario import load_scenario
+
+SCENARIOS = {
+    "corridor": "corridor",
+    "office": "office: rooms, doors, a glass partition",
+    "hall": "hall: four pillars, a mirror wall",
+    "lab": "lab: a foam (absorbing) screen, glass",
+    "patrol": "patrol: a corridor from three poses",
+}
+"""Scenario file stem -> its row label in the README."""
+
+RULE_COLUMNS = {
+    "noise_recall": ("noise recall", "{:.3f}"),
+    "real_loss": ("real loss", "{:.3f}"),
+    "glass_explained": ("glass explained", "{:.3f}"),
+    "mean_conflict": ("mean conflict", "{:.3f}"),
+    "map_error": ("map error (m)", "{:.3f}"),
+    "lines": ("lines", "{:.1f}"),
+    "unidentified": ("unidentified", "{:.2f}"),
+    "seconds_per_world": ("s per world", "{:.3f}"),
+}
+"""summary.csv column -> the README's heading and format."""
+
+
+def scenario_table() -> str:
+    """The "Other scenarios" table: one row per packaged scenario, run with the packaged config."""
+    config = load_config()
+    out = [
+        (
+            "| scenario | poses | phantoms eliminated | real eliminated | lines before → after | corners "
+            "| RCDs actual / simulated / matched | unidentified |"
+        ),
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for stem, label in SCENARIOS.items():
+        r = report(run_scenario(load_scenario(str(files("evmap.configs") / "scenarios" / f"{stem}.yaml")), config))
+        real = r["lsl_segments"] - r["noise_segments"]
+        out.append(
+            f"| {label} | {r['poses']} | {r['noise_eliminated']}/{r['noise_segments']} | "
+            f"{r['real_eliminated']}/{real} | {r['lines_before_merge']} → {r['lines_after_merge']} | {r['corners']} | "
+            f"{r['rcds_actual']} / {r['rcds_simulated']} / {r['rcds_matched']} | {r['unidentified']} |"
+        )
+    return "\n".join(out)
+
+
+def rule_table(comparison: Comparison) -> str:
+    """The "Rules on generated worlds" table: the means of summary.csv in the README's layout."""
+    out = [
+        "| rule | " + " | ".join(h for h, _ in RULE_COLUMNS.values()) + " |",
+        "| --- | " + " | ".join("---:" for _ in RULE_COLUMNS) + " |",
+    ]
+    for row in comparison.summary:
+        cells = ["" if row[c] is None else fmt.format(row[c]) for c, (_, fmt) in RULE_COLUMNS.items()]
+        out.append(f"| {row['rule']} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--worlds", type=int, default=200)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--scheduler", help="as evmap compare's (default: a local cluster)")
+    args = parser.parse_args()
+    print("### Other scenarios\n")
+    print(scenario_table())
+    comparison = run_comparison(DEFAULT_RULES, args.worlds, args.seed, scheduler=args.scheduler, progress=True)
+    print(
+        f"\n### Rules on {args.worlds} generated worlds (`evmap compare ... --worlds {args.worlds} --seed {args.seed}`)\n"
+    )
+    print(rule_table(comparison))
+
+
+if __name__ == "__main__":
+    main()

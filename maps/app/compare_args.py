@@ -1,0 +1,54 @@
+"""The ``evmap compare`` command's arguments: what the command line parses before it imports the comparison."""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["DEFAULT_RULES", "SYNCHRONOUS_BELOW", "add_compare_parser", "run_compare"]
+
+DEFAULT_RULES = ("dempster", "yager", "dubois_prade", "pcr6", "murphy", "bayes")
+"""The rules ``evmap compare`` runs when ``--rules`` is not given."""
+
+SYNCHRONOUS_BELOW = 8
+"""With the default scheduler, fewer worlds than this run in this process (a local cluster takes seconds to start)."""
+
+
+def run_compare(args: argparse.Namespace) -> int:
+    """The handler of ``compare``: :func:`evmap.maps.app.compare.compare_command`, imported when it runs."""
+    from evmap.maps.app.compare import compare_command
+
+    return compare_command(args)
+
+
+def add_compare_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register ``compare`` on ``subparsers`` (``evmap``'s commands); its handler is :func:`run_compare`.
+
+    >>> parser = argparse.ArgumentParser(prog="evmap")
+    >>> _ = add_compare_parser(parser.add_subparsers())
+    >>> args = parser.parse_args(["compare", "--out", "x", "--worlds", "3"])
+    >>> args.handler is run_compare, args.rules, args.worlds, args.seed
+    (True, 'dempster,yager,dubois_prade,pcr6,murphy,bayes', 3, 0)
+    """
+    compare = subparsers.add_parser(
+        "compare",
+        help="compare combination rules on generated worlds with ground truth",
+        description="Run every rule on every generated world with the same scans; "
+        "write tables, per-world rows and plots.",
+    )
+    compare.add_argument(
+        "--rules", default=",".join(DEFAULT_RULES), help="comma-separated rule names (default: %(default)s)"
+    )
+    compare.add_argument("--worlds", type=int, default=20, help="number of generated worlds (default: %(default)s)")
+    compare.add_argument("--seed", type=int, default=0, help="seed of the experiment (default: %(default)s)")
+    compare.add_argument("--out", required=True, help="output directory: must not exist or be empty (see --force)")
+    compare.add_argument("--force", action="store_true", help="replace --out if evmap wrote it")
+    compare.add_argument("--config", help="config file, or a packaged config by name: paper, default (default: paper)")
+    compare.add_argument(
+        "--scheduler",
+        help="address of a Dask scheduler, or synchronous|threads|processes (default: a local cluster, "
+        f"in this process below {SYNCHRONOUS_BELOW} worlds)",
+    )
+    compare.add_argument("--workers", type=int, help="processes of the local cluster (default: one per CPU)")
+    compare.add_argument("--quiet", action="store_true", help="no progress bar")
+    compare.set_defaults(handler=run_compare)
+    return compare

@@ -1,0 +1,262 @@
+"""The figures of one world in a rule comparison: fuse every rule on the same scans, measure each map.
+
+Every rule runs on the same scans: the world is sensed once, from all its
+poses, and the same observations are folded into one belief map per rule
+(:func:`fuse_rules`). Per world and rule, :func:`world_metrics` gives the
+:data:`METRICS` (what each measures: :data:`DEFINITIONS`), the :data:`COUNTS`
+and the timings. A ratio whose denominator is empty (no noise segment, no such
+glass wall, no line) is ``None``.
+
+>>> from evmap.sources.config import load_config
+>>> from evmap.sources.sim.worldgen import generate_world
+>>> runs = fuse_rules(generate_world(2), load_config(), ["dempster", "yager"])
+>>> sorted(runs), runs["dempster"].observations is runs["yager"].observations
+(['dempster', 'yager'], True)
+>>> m = world_metrics(runs["dempster"])
+>>> set(METRICS) <= set(m), m["noise_segments"] > 0
+(True, True)
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from evmap.maps import new_map
+from evmap.maps.app.metrics import share
+from evmap.maps.app.run import Run
+from evmap.maps.observation import observe
+from evmap.maps.pipeline import fold_observation
+from evmap.sources.config import Config
+from evmap.sources.sim.scenario import Scenario
+from evmap.sources.sim.surfaces import Surfaces
+from evmap.sources.sim.world import World, cast_rays
+
+__all__ = [
+    "BELIEF_BINS",
+    "COLUMNS",
+    "COUNTS",
+    "DEFINITIONS",
+    "GLASS_RADIUS",
+    "MAP_ERROR_STEP",
+    "METRICS",
+    "TRUTHS",
+    "WorldResult",
+    "belief_histograms",
+    "fuse_rules",
+    "line_beliefs",
+    "map_error",
+    "visible_glass",
+    "world_metrics",
+]
+
+METRICS = ("noise_recall", "real_loss", "glass_explained", "mean_conflict", "map_error")
+"""The figures per world and rule (see the module doc)."""
+
+COUNTS = ("noise_segments", "real_segments", "lines", "unidentified")
+"""Counts per world and rule: segments by truth, map lines with belief >= 0.5, unidentified objects."""
+
+COLUMNS = ("rule", *METRICS, "max_conflict", *COUNTS, "seconds_per_world", "seconds_simulate")
+"""The columns of ``summary.csv``; ``worlds.csv`` has ``world`` first. ``seconds...`` are timings."""
+
+GLASS_RADIUS = 0.3
+"""An unidentified object within this distance (m) of a glass wall explains it."""
+
+MAP_ERROR_STEP = 0.05
+"""Spacing (m) of the points along a map line whose distance to the true surfaces is measured."""
+
+BELIEF_BINS = np.linspace(0.0, 1.0, 21)
+"""Histogram bins of the line beliefs of real and phantom segments."""
+
+DEFINITIONS = {
+    "noise_recall": "noise (sunlight) segments eliminated / noise segments",
+    "real_loss": "real segments eliminated / real segments",
+    "glass_explained": (
+        "share of the LSL-invisible, sonar-specular walls (glass, mirrors) seen at normal incidence from some pose, "
+        f"unobstructed, that have an unidentified object within {GLASS_RADIUS} m"
+    ),
+    "mean_conflict": (
+        "mean conflict K between the sonar and the LSL masses over all segments "
+        "(a property of the evidence, equal for every rule)"
+    ),
+    "map_error": (
+        f"mean distance (m) to the nearest true surface of points every {MAP_ERROR_STEP} m along the final lines "
+        "with belief at least 0.5"
+    ),
+}
+"""What each of :data:`METRICS` measures, per world and rule (``summary.md`` prints it)."""
+
+TRUTHS = ("real", "noise")
+"""The simulator's truths of a segment, in the order of the belief histograms' rows."""
+
+
+def fuse_rules(scenario: Scenario, config: Config, rules: Sequence[str]) -> dict[str, Run]:
+    """Sense the scenario once from every pose, then fold the same observations into one map per rule.
+
+    Each :class:`~evmap.maps.app.run.Run` shares the world and the observations; its
+    ``seconds`` are ``simulate`` (shared), ``fuse`` (this rule) and ``total``.
+    """
+    world = World(scenario)
+    start = time.perf_counter()
+    observations = [observe(world, k, config) for k in range(len(world.poses))]
+    simulate = time.perf_counter() - start
+    runs = {}
+    for rule in rules:
+        cfg = config.with_rule(rule)
+        start = time.perf_counter()
+        bm = new_map(cfg)
+        outcomes = [fold_observation(bm, obs, cfg) for obs in observations]
+        fuse = time.perf_counter() - start
+        runs[rule] = Run(
+            world, cfg, observations, outcomes, bm, {"simulate": simulate, "fuse": fuse, "total": simulate + fuse}
+        )
+    return runs
+
+
+def world_metrics(run: Run, glass: NDArray[np.intp] | None = None) -> dict[str, float | int | None]:
+    """The figures of one rule on one world (module doc); ``None`` where a ratio has no denominator.
+
+    ``glass``: the indices of :func:`visible_glass` in the world's surfaces, if
+    already computed (they do not depend on the rule).
+    """
+    store = run.map.segments
+    noise = store.truth == "noise"
+    real = store.truth == "real"
+    surfaces = run.world.surfaces()
+    if glass is None:
+        glass = visible_glass(run.world, run.config)
+    lines = run.map.lines(min_belief=0.5)
+    unidentified = np.array([u.xy for u in run.map.unidentified()], dtype=float).reshape(-1, 2)
+    explained = None
+    if len(glass):
+        d = _segment_distance(unidentified, surfaces.p[glass], surfaces.q[glass])  # (U, G)
+        explained = float((d <= GLASS_RADIUS).any(axis=0).mean()) if len(unidentified) else 0.0
+    return {
+        "noise_recall": share(store.eliminated & noise, noise),
+        "real_loss": share(store.eliminated & real, real),
+        "glass_explained": explained,
+        "mean_conflict": float(store.conflict.mean()) if len(store) else None,
+        "map_error": map_error([line.p for line in lines], [line.q for line in lines], surfaces),
+        "max_conflict": float(store.conflict.max()) if len(store) else None,
+        "noise_segments": int(noise.sum()),
+        "real_segments": int(real.sum()),
+        "lines": len(lines),
+        "unidentified": len(unidentified),
+        "seconds_per_world": run.seconds["fuse"],
+        "seconds_simulate": run.seconds["simulate"],
+    }
+
+
+def visible_glass(world: World, config: Config) -> NDArray[np.intp]:
+    """Indices (into ``world.surfaces()``) of the LSL-transparent, sonar-specular walls seen at normal incidence.
+
+    A wall is seen at normal incidence from a pose when the foot of the
+    perpendicular from the pose lies strictly inside the wall, within the
+    sonar's ``max_range`` (the scenario's, else the config's), and the sight
+    line to it crosses no other surface (wall or cylinder, whatever its material).
+
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.scenario import default_scenario
+    >>> world = World(default_scenario())
+    >>> world.surfaces().segment_ids[visible_glass(world, load_config())].tolist()  # window 2 is beside the pose
+    ['east-window-1']
+    """
+    s = world.surfaces()
+    sonar, _ = world.scenario.sensor_params(config.sensors.sonar, config.sensors.lsl)
+    candidates = np.flatnonzero(~s.lsl_opaque & s.sonar_reflective)
+    if not len(candidates):
+        return candidates
+    p, q = s.p[candidates], s.q[candidates]
+    d = q - p
+    seen = np.zeros(len(candidates), dtype=bool)
+    for x, y, _ in world.poses:
+        t = ((x - p[:, 0]) * d[:, 0] + (y - p[:, 1]) * d[:, 1]) / (d**2).sum(axis=1)
+        foot = p + t[:, None] * d
+        dist = np.hypot(foot[:, 0] - x, foot[:, 1] - y)
+        ok = (t > 0) & (t < 1) & (dist > 0) & (dist <= sonar.max_range)
+        if not ok.any():
+            continue
+        angles = np.arctan2(foot[ok, 1] - y, foot[ok, 0] - x)
+        _, hit = cast_rays((x, y), angles, s.p, s.q, s.cylinder_centers, s.cylinder_radii, sonar.max_range)
+        seen[np.flatnonzero(ok)[hit == candidates[ok]]] = True
+    return candidates[seen]
+
+
+def map_error(p: Sequence[Any], q: Sequence[Any], surfaces: Surfaces) -> float | None:
+    """Mean distance (m) from points every :data:`MAP_ERROR_STEP` along lines p-q to the nearest true surface.
+
+    Each line gives ``ceil(length / step) + 1`` evenly spaced points, both ends
+    included; ``None`` when there are no lines.
+
+    >>> from evmap.sources.sim.scenario import default_scenario
+    >>> s = World(default_scenario()).surfaces()
+    >>> round(map_error([(1.0, 0.1)], [(2.0, 0.1)], s), 6)
+    0.1
+    """
+    if not len(p):
+        return None
+    p, q = np.asarray(p, dtype=float).reshape(-1, 2), np.asarray(q, dtype=float).reshape(-1, 2)
+    count = np.ceil(np.hypot(*(q - p).T) / MAP_ERROR_STEP).astype(int) + 1
+    line = np.repeat(np.arange(len(p)), count)
+    t = (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)) / np.repeat(count - 1, count)
+    points = p[line] + t[:, None] * (q - p)[line]
+    d = np.full(len(points), np.inf)
+    if len(surfaces.segments):
+        d = _segment_distance(points, surfaces.p, surfaces.q).min(axis=1)
+    if len(surfaces.cylinder_radii):
+        to_center = np.hypot(*(points[:, None, :] - surfaces.cylinder_centers[None]).transpose(2, 0, 1))
+        d = np.minimum(d, np.abs(to_center - surfaces.cylinder_radii).min(axis=1))
+    return float(d.mean())
+
+
+def line_beliefs(run: Run) -> tuple[NDArray[np.float64], NDArray[np.str_]]:
+    """Per segment: Bel(real) of the map line it ended in (0 if eliminated), and its truth.
+
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.worldgen import generate_world
+    >>> belief, truth = line_beliefs(fuse_rules(generate_world(2), load_config(), ["dempster"])["dempster"])
+    >>> belief.shape == truth.shape, bool(((belief >= 0) & (belief <= 1)).all())
+    (True, True)
+    """
+    store = run.map.segments
+    by_line = {line.id: line.belief for line in run.map.lines(min_belief=0.0)}
+    ids, which = np.unique(store.line.astype(str), return_inverse=True)
+    belief = np.array([by_line.get(i, 0.0) for i in ids], dtype=float)[which.reshape(-1)]
+    belief[store.eliminated] = 0.0
+    return belief.reshape(-1), store.truth.copy()
+
+
+def belief_histograms(run: Run) -> NDArray[np.int64]:
+    """(2, len(BELIEF_BINS) - 1) segment counts per bin of :func:`line_beliefs`: real segments, then noise ones."""
+    belief, truth = line_beliefs(run)
+    return np.stack([np.histogram(belief[truth == t], BELIEF_BINS)[0] for t in TRUTHS])
+
+
+def _segment_distance(
+    points: NDArray[np.float64], p: NDArray[np.float64], q: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """(M, N) distance from each point to each segment p-q."""
+    d = q - p
+    w = points[:, None, :] - p[None, :, :]
+    length2 = np.maximum((d**2).sum(axis=1), np.finfo(float).tiny)
+    t = np.clip((w * d[None]).sum(axis=2) / length2, 0.0, 1.0)
+    return np.hypot(*(w - t[..., None] * d[None]).transpose(2, 0, 1))
+
+
+@dataclass(frozen=True)
+class WorldResult:
+    """One world's outcome: its name and YAML, a row per rule, and belief histograms.
+
+    ``beliefs[rule]`` is an int array (2, len(BELIEF_BINS) - 1): segment counts per
+    belief bin, real segments then noise segments.
+    """
+
+    world: str
+    yaml: str
+    rows: tuple[dict[str, Any], ...]
+    beliefs: dict[str, NDArray[np.int64]]

@@ -1,0 +1,129 @@
+"""A rule comparison's plots: noise recall against real loss, the metrics' intervals, the line beliefs.
+
+Every rule stays visible when rules agree (Yager's and Dubois–Prade's rules are
+equal on a two-element frame): each rule has its own marker and colour, and its
+mean is drawn shifted sideways by a few points (not data units) from the others.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from matplotlib.figure import Figure
+from matplotlib.transforms import offset_copy
+
+from evmap.maps.app.compare_metrics import BELIEF_BINS, METRICS
+from evmap.maps.app.compare_tables import CONFIDENCE, Comparison
+
+__all__ = ["MARKERS", "PLOT_FILES", "SHIFT_POINTS", "write_plots"]
+
+MARKERS = "oDs^vPX*<>"
+"""Marker of the k-th rule (cycled)."""
+
+SHIFT_POINTS = 7.0
+"""Sideways shift (typographic points) between the means of consecutive rules."""
+
+PLOT_FILES = ("noise_recall_vs_real_loss.png", "metric_intervals.png", "line_beliefs.png")
+"""What :func:`write_plots` writes."""
+
+
+def write_plots(comparison: Comparison, directory: Path) -> None:
+    """Write the :data:`PLOT_FILES` into ``directory``."""
+    for name, plot in zip(PLOT_FILES, (plot_recall_loss, plot_intervals, plot_beliefs), strict=True):
+        plot(comparison, directory / name)
+
+
+def plot_recall_loss(comparison: Comparison, path: Path) -> None:
+    """Noise recall against real loss: each world (dots) and each rule's mean with its intervals (bars)."""
+    fig = Figure(figsize=(6.4, 4.8))
+    ax = fig.subplots()
+    n = len(comparison.rules)
+    for k, rule in enumerate(comparison.rules):
+        color, marker = f"C{k % 10}", MARKERS[k % len(MARKERS)]
+        points = comparison.points[rule]
+        ax.scatter(points[:, 0], points[:, 1], s=8, alpha=0.25, color=color, linewidths=0)
+        row = next(r for r in comparison.summary if r["rule"] == rule)
+        if row["real_loss"] is None or row["noise_recall"] is None:
+            continue
+        shifted = offset_copy(ax.transData, fig=fig, x=(k - (n - 1) / 2) * SHIFT_POINTS, y=0, units="points")
+        ax.errorbar(
+            row["real_loss"],
+            row["noise_recall"],
+            xerr=_bar(row, "real_loss"),
+            yerr=_bar(row, "noise_recall"),
+            fmt=marker,
+            ms=8,
+            color=color,
+            mec="k",
+            capsize=3,
+            transform=shifted,
+            label=rule,
+            zorder=3,
+        )
+    ax.set_xlabel("real loss (real segments eliminated)")
+    ax.set_ylabel("noise recall (phantom segments eliminated)")
+    ax.set_title(
+        f"{comparison.worlds} worlds: worlds (dots), rule means with {CONFIDENCE:.0%} intervals\n"
+        "(means shifted sideways by a few points so that equal ones stay visible)",
+        fontsize="medium",
+    )
+    ax.legend(fontsize="small")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
+def plot_intervals(comparison: Comparison, path: Path) -> None:
+    """One panel per metric: each rule's mean and interval on its own row."""
+    rules = comparison.rules
+    fig = Figure(figsize=(3.0 * len(METRICS), 0.45 * len(rules) + 1.6))
+    axes = fig.subplots(1, len(METRICS), sharey=True)
+    for ax, metric in zip(axes, METRICS, strict=True):
+        for k, rule in enumerate(rules):
+            row = comparison.summary[k]
+            if row[metric] is None:
+                continue
+            ax.errorbar(
+                row[metric],
+                k,
+                xerr=_bar(row, metric),
+                fmt=MARKERS[k % len(MARKERS)],
+                color=f"C{k % 10}",
+                mec="k",
+                capsize=3,
+            )
+        ax.set_title(metric, fontsize="medium")
+        ax.grid(axis="x", alpha=0.3)
+    axes[0].set_yticks(range(len(rules)), rules)
+    axes[0].set_ylim(len(rules) - 0.5, -0.5)
+    fig.suptitle(f"Means over {comparison.worlds} worlds with {CONFIDENCE:.0%} Student t intervals", fontsize="medium")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
+def plot_beliefs(comparison: Comparison, path: Path) -> None:
+    """Per rule: the share of real and phantom segments per Bel(real) of their line."""
+    n = len(comparison.rules)
+    cols = min(n, 3)
+    rows = -(-n // cols)
+    fig = Figure(figsize=(4.2 * cols, 3.2 * rows))
+    axes = fig.subplots(rows, cols, squeeze=False, sharey=True)
+    for ax, rule in zip(axes.flat, comparison.rules):
+        for counts, label, color in zip(comparison.beliefs[rule], ("real", "phantom"), ("C0", "C3")):
+            share = counts / max(int(counts.sum()), 1)
+            ax.stairs(share, BELIEF_BINS, label=f"{label} ({int(counts.sum())})", color=color, fill=False, lw=1.5)
+        ax.set_title(rule)
+        ax.set_xlabel("Bel(real) of the segment's line (0: eliminated)")
+        ax.legend(fontsize="small")
+    for ax in axes.flat[n:]:
+        ax.axis("off")
+    axes[0, 0].set_ylabel("share of segments")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
+def _bar(row: dict, metric: str) -> list[list[float]] | None:
+    """Error bar lengths below and above the mean, from ``<metric>_lo``/``_hi``; None without an interval."""
+    lo, hi = row.get(f"{metric}_lo"), row.get(f"{metric}_hi")
+    if lo is None or hi is None:
+        return None
+    return [[row[metric] - lo], [hi - row[metric]]]

@@ -1,0 +1,364 @@
+"""Running a rule comparison on many generated worlds: in this process or in parallel with Dask.
+
+World ``i`` of the experiment ``seed`` is generated from ``world_seed(seed, i)``
+inside the worker that computes it: tasks carry only indices, the seed, the
+rule names, the config path and the generator's parameters; each worker loads
+the config once (:func:`compare_batch`). Worlds go in batches, at most
+:data:`MAX_IN_FLIGHT_PER_WORKER` batches per worker at a time, and come back in
+world order (:func:`iter_results`): memory is bounded whatever the number of
+worlds, and the numbers are the same whatever the scheduler.
+
+Schedulers: ``None`` is a local Dask cluster of ``workers`` processes (default:
+one per CPU), except below :data:`SYNCHRONOUS_BELOW` worlds, where starting it
+costs more than it saves and the worlds run in this process; ``synchronous``
+runs them here; ``threads`` and ``processes`` use a local pool; anything else is
+the address of a Dask scheduler.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import functools
+import gc
+import itertools
+import logging
+import multiprocessing
+import os
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+from subprocess import DEVNULL
+from typing import Any
+
+from evidential import RULES
+from evmap.maps.app.compare_args import SYNCHRONOUS_BELOW
+from evmap.maps.app.compare_metrics import WorldResult, belief_histograms, fuse_rules, visible_glass, world_metrics
+from evmap.maps.app.compare_tables import Comparison, Tally
+from evmap.sources.config import Config, load_config
+from evmap.sources.plugins import load_plugins, refusal
+from evmap.sources.sim.worldgen import WorldGenParams, generate_world, scenario_yaml, world_seed
+
+__all__ = [
+    "CONNECT_TIMEOUT",
+    "LOCAL_SCHEDULERS",
+    "MAX_BATCH",
+    "MAX_IN_FLIGHT_PER_WORKER",
+    "MAX_WORLDS",
+    "SYNCHRONOUS_BELOW",
+    "batch_size",
+    "check_rules",
+    "compare_batch",
+    "compare_world",
+    "iter_results",
+    "run_comparison",
+]
+
+LOCAL_SCHEDULERS = ("synchronous", "threads", "processes")
+"""Local schedulers accepted by ``scheduler`` besides a Dask scheduler's address."""
+
+MAX_WORLDS = 1_000_000
+"""Most worlds one comparison runs."""
+
+
+MAX_BATCH = 4
+"""Most worlds per task (a world takes about 0.5-1 s with the six default rules)."""
+
+TASKS_PER_WORKER = 12
+"""Batches are made small enough to give each worker at least this many (the last ones balance the load)."""
+
+MAX_IN_FLIGHT_PER_WORKER = 2
+"""Batches submitted per worker and not yet collected: what bounds the memory of a run."""
+
+CONNECT_TIMEOUT = 5
+"""Seconds to reach a Dask scheduler before giving up."""
+
+GC_EVERY = 16
+"""Worlds between full garbage collections in a process. Each world leaves about 0.2 MB of reference cycles,
+and the collector pauses of the map code (``gc.freeze``/``unfreeze``) keep the automatic full pass from running:
+without this a process's memory grows with the worlds. A pass takes about 0.1 s."""
+
+_worlds_done = itertools.count(1)
+
+
+@functools.lru_cache(maxsize=4)
+def _config(path: str | None) -> Config:
+    return load_config(path)
+
+
+def compare_world(
+    index: int, seed: int, rules: Sequence[str], config_path: str | None = None, params: WorldGenParams | None = None
+) -> WorldResult:
+    """World ``index`` of the experiment ``seed``: generated, sensed once, fused by every rule.
+
+    >>> r = compare_world(0, 1, ["dempster", "bayes"])
+    >>> r.world, [row["rule"] for row in r.rows], r.beliefs["bayes"].shape
+    ('world-0000', ['dempster', 'bayes'], (2, 20))
+    """
+    config = _config(config_path)
+    name = f"world-{index:04d}"
+    scenario = generate_world(world_seed(seed, index), params, name=name)
+    runs = fuse_rules(scenario, config, rules)
+    glass = visible_glass(next(iter(runs.values())).world, config)
+    rows = tuple({"world": name, "rule": rule, **world_metrics(run, glass)} for rule, run in runs.items())
+    beliefs = {rule: belief_histograms(run) for rule, run in runs.items()}
+    if next(_worlds_done) % GC_EVERY == 0:
+        gc.collect()
+    return WorldResult(name, scenario_yaml(scenario), rows, beliefs)
+
+
+def compare_batch(
+    start: int,
+    stop: int,
+    seed: int,
+    rules: Sequence[str],
+    config_path: str | None = None,
+    params: WorldGenParams | None = None,
+) -> list[WorldResult]:
+    """Worlds ``start`` to ``stop - 1`` (:func:`compare_world`): the unit of work sent to a worker."""
+    return [compare_world(i, seed, rules, config_path, params) for i in range(start, stop)]
+
+
+def batch_size(worlds: int, workers: int) -> int:
+    """Worlds per task: at most :data:`MAX_BATCH`, and small enough for :data:`TASKS_PER_WORKER` tasks per worker.
+
+    >>> batch_size(200, 2), batch_size(20, 2), batch_size(100_000, 64)
+    (4, 1, 4)
+    """
+    return max(1, min(MAX_BATCH, worlds // (workers * TASKS_PER_WORKER)))
+
+
+def check_rules(rules: Sequence[str] | str) -> tuple[str, ...]:
+    """Rule names from a sequence or a comma-separated string, checked against :data:`evidential.RULES`.
+
+    >>> check_rules("dempster, yager")
+    ('dempster', 'yager')
+    >>> check_rules("dempster,nope")
+    Traceback (most recent call last):
+    ...
+    ValueError: rules: unknown rule 'nope'; known rules: ...
+    """
+    names = [r.strip() for r in (rules.split(",") if isinstance(rules, str) else rules)]
+    if not names or any(not n for n in names):
+        raise ValueError(f"rules: need one or more comma-separated rule names, got {rules!r}")
+    if any(n not in RULES for n in names):
+        load_plugins()  # rules of installed packages, registered on first use
+    for n in names:
+        if n not in RULES:
+            problem = refusal("evmap.rules", n) or f"unknown rule {n!r}; known rules: {', '.join(sorted(RULES))}"
+            raise ValueError(f"rules: {problem}")
+    if len(set(names)) < len(names):
+        raise ValueError(f"rules: a rule is named twice in {names}")
+    return tuple(names)
+
+
+def check_run(worlds: int, seed: int, workers: int | None, config_path: str | Path | None) -> str | None:
+    """Check the numbers of a comparison and load its config (a bad one fails here, before any work).
+
+    Returns the config path as a string (``None``: the packaged config).
+    """
+    if not isinstance(worlds, int) or not 1 <= worlds <= MAX_WORLDS:
+        raise ValueError(f"worlds must be an integer from 1 to {MAX_WORLDS}, got {worlds!r}")
+    if not isinstance(seed, int) or not 0 <= seed < 2**63:
+        raise ValueError(f"seed must be an integer with 0 <= seed < 2**63, got {seed!r}")
+    if workers is not None and (not isinstance(workers, int) or workers < 1):
+        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    path = None if config_path is None else str(config_path)
+    _config(path)
+    return path
+
+
+def iter_results(
+    rules: Sequence[str],
+    worlds: int,
+    seed: int,
+    *,
+    config_path: str | Path | None = None,
+    params: WorldGenParams | None = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: bool = True,
+) -> Iterator[WorldResult]:
+    """Every rule on ``worlds`` generated worlds with the same scans, yielded in world order as they are done.
+
+    Parameters
+    ----------
+    rules : names in :data:`evidential.RULES`.
+    worlds : how many worlds (1 to :data:`MAX_WORLDS`); world ``i`` has seed ``world_seed(seed, i)``.
+    seed : the experiment's seed, 0 <= seed < 2**63.
+    config_path : the config file (default: the packaged paper's); a cluster's workers must be able to read it.
+    params : the world generator's parameters.
+    scheduler : see the module doc.
+    workers : processes of the local cluster or pool (default: one per CPU).
+    progress : show a progress bar on standard error from the start.
+
+    Raises
+    ------
+    ValueError
+        On a bad argument or config, or a scheduler that cannot be reached
+        within :data:`CONNECT_TIMEOUT` seconds, before any world is computed.
+    """
+    rules = check_rules(rules)
+    path = check_run(worlds, seed, workers, config_path)
+    from tqdm import tqdm
+
+    bar = tqdm(total=worlds, desc="compare", unit="world", file=sys.stderr, disable=not progress, mininterval=0.5)
+    with bar:
+        if scheduler == "synchronous" or (scheduler is None and worlds < SYNCHRONOUS_BELOW):
+            for i in range(worlds):
+                yield compare_world(i, seed, rules, path, params)
+                bar.update(1)
+            return
+        bar.set_postfix_str("starting workers", refresh=True)
+        with _executor(scheduler, workers) as (pool, wait, slots):
+            size = batch_size(worlds, slots)
+            starts = iter(range(0, worlds, size))
+            pending: dict[Any, int] = {}
+            done: dict[int, list[WorldResult]] = {}
+            following = 0
+            while True:
+                while len(pending) < slots * MAX_IN_FLIGHT_PER_WORKER and (start := next(starts, None)) is not None:
+                    stop = min(start + size, worlds)
+                    pending[pool.submit(compare_batch, start, stop, seed, rules, path, params)] = start
+                if not pending:
+                    return
+                for future in wait(list(pending)):
+                    done[pending.pop(future)] = future.result()
+                while following in done:
+                    bar.set_postfix_str("", refresh=False)
+                    batch = done.pop(following)
+                    yield from batch
+                    bar.update(len(batch))
+                    following += len(batch)
+                bar.refresh()
+
+
+def run_comparison(rules: Sequence[str], worlds: int, seed: int, **options: Any) -> Comparison:
+    """:func:`iter_results` gathered into a :class:`Comparison`, with every row and scenario kept in memory.
+
+    ``options`` are those of :func:`iter_results`. For big runs stream instead (``evmap compare`` does).
+
+    >>> c = run_comparison(["dempster", "yager"], 2, 1, scheduler="synchronous", progress=False)
+    >>> [row["rule"] for row in c.summary], len(c.rows), sorted(c.scenarios)
+    (['dempster', 'yager'], 4, ['world-0000', 'world-0001'])
+    """
+    rules = check_rules(rules)
+    tally, rows, scenarios = Tally(rules), [], {}
+    for result in iter_results(rules, worlds, seed, **options):
+        tally.add(result)
+        rows += result.rows
+        scenarios[result.world] = result.yaml
+    return tally.comparison(seed, rows, scenarios)
+
+
+# --------------------------------------------------------------------- executors
+
+WORKER_DEATH_TIMEOUT = 20
+"""Seconds a local worker outlives a scheduler it cannot reach (this process killed)."""
+
+
+def _ignore_sigint() -> None:
+    """In a worker of the ``processes`` pool: leave Ctrl-C to the main process, which shuts the pool down."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _wait_local(futures: list[Any]) -> set[Any]:
+    done, _ = concurrent.futures.wait(futures, timeout=0.5, return_when=concurrent.futures.FIRST_COMPLETED)
+    return done
+
+
+def _wait_dask(futures: list[Any]) -> set[Any]:
+    from distributed import wait
+
+    try:
+        return set(wait(futures, timeout=0.5, return_when="FIRST_COMPLETED").done)
+    except TimeoutError:
+        return set()
+
+
+@contextmanager
+def _executor(scheduler: str | None, workers: int | None) -> Iterator[tuple[Any, Any, int]]:
+    """(something with ``submit``, a wait for the first done futures, the number of workers); shut down on exit."""
+    n = workers or os.cpu_count() or 1
+    if scheduler == "threads":
+        with concurrent.futures.ThreadPoolExecutor(n) as pool:
+            yield pool, _wait_local, n
+    elif scheduler == "processes":
+        context = multiprocessing.get_context("spawn")
+        pool = concurrent.futures.ProcessPoolExecutor(n, mp_context=context, initializer=_ignore_sigint)
+        try:
+            yield pool, _wait_local, n
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+    elif scheduler is None:
+        with _local_cluster(n) as client:
+            yield client, _wait_dask, n
+    else:
+        from distributed import Client
+
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT)
+        except (OSError, TimeoutError, ValueError) as exc:
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise ValueError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({reason})") from None
+        try:
+            yield client, _wait_dask, sum(client.nthreads().values()) or 1
+        finally:
+            client.close()
+
+
+@contextmanager
+def _local_cluster(n: int) -> Iterator[Any]:
+    """A Dask scheduler in this process and ``n`` single-threaded ``dask worker`` processes, a client to them.
+
+    The workers run in their own session: Ctrl-C (sent to the terminal's
+    foreground process group) reaches only this process, which then stops them.
+    Tasks queue at the scheduler while the workers start.
+    """
+    import dask
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(
+        n_workers=0,
+        processes=False,
+        protocol="tcp",
+        host="127.0.0.1",
+        scheduler_port=0,
+        dashboard_address=None,
+        silence_logs=logging.ERROR,
+    )
+    command = [
+        sys.executable,
+        "-m",
+        "distributed.cli.dask_worker",
+        cluster.scheduler_address,
+        "--nthreads=1",
+        "--no-nanny",
+        "--no-dashboard",
+        f"--death-timeout={WORKER_DEATH_TIMEOUT}",
+    ]
+    # what Dask's nanny sets for its workers: one BLAS thread each, freed memory returned to the system
+    spawn_environ = dask.config.get("distributed.nanny.pre-spawn-environ")
+    env = {**os.environ, **{key: str(value) for key, value in spawn_environ.items()}}
+    procs: list[subprocess.Popen[bytes]] = []
+    try:
+        for _ in range(n):
+            procs.append(
+                subprocess.Popen(
+                    command, env=env, stdin=DEVNULL, stdout=DEVNULL, stderr=DEVNULL, start_new_session=True
+                )
+            )
+        with Client(cluster) as client:
+            yield client
+    finally:
+        for proc in procs:
+            proc.terminate()
+        for proc in procs:
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        cluster.close()
