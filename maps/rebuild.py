@@ -67,8 +67,9 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     merged = merge_segments(store.p[pool], store.q[pool], config.merge, store.seen[pool])
     evidence = _merged_evidence(bm, pool, merged, config)
 
-    refits, fits = _refits(bm, pool, merged, dissolved, config)
-    moves = [move for lid in fits for move in _corner_moves(bm, lid, fits, config) or ()]
+    refits, fits, neighbours = _refits(bm, pool, merged, dissolved, config)
+    near = _line_ends(bm, neighbours, fits)
+    moves = [move for lid in fits for move in _end_moves(bm, lid, fits, near, config) or ()]
     for k, lid in refits.items():
         _refit_in_place(bm, lid, pool[merged.groups[k]], fits[lid], (merged, k), evidence, config)
         del dissolved[lid]
@@ -130,17 +131,18 @@ def _affected_points(
 
 def _refits(
     bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, dissolved: dict[str, tuple[str, str]], config: Config
-) -> tuple[dict[int, str], dict[str, NDArray[np.float64]]]:
-    """The merged lines that only refit a line of the map (merged line -> the line it refits), and the new
-    fit of each such line (its ends in the order of the line's end points).
+) -> tuple[dict[int, str], dict[str, NDArray[np.float64]], list[tuple[str, str]]]:
+    """The merged lines that only refit a line of the map (merged line -> the line it refits), the new
+    fit of each such line (its ends in the order of the line's end points), and the (line, point) pairs
+    near them (for :func:`_end_moves`).
 
     A merged line refits the map's line L when its members are all of L's
     members and segments of no line, its direction is within ``angle_deg`` of
     L's fit and its ends within ``min(merge distance, corner distance / 2)`` of
-    L's, and each end of L can follow without the corners changing: a free end
-    point, or a corner of L and one other line whose end stays within the corner
-    distance (the corner moves to the new midpoint), with no other end or corner
-    within twice the corner distance. L then stays in place, moved onto the
+    L's, and each end of L can follow without the corners changing
+    (:func:`_end_moves`): a free end point meeting no other line's end, or a
+    corner of L and one other line whose end it still meets and no other (the
+    corner moves to the new midpoint). L then stays in place, moved onto the
     merged line (:func:`_refit_in_place`), as a whole rebuild would find it.
     """
     store = bm.segments
@@ -167,54 +169,66 @@ def _refits(
         if np.hypot(*(new - old).T).max() <= move and cos >= cos_tol:
             fits[lid], lines[lid] = new, k
     if not fits:
-        return {}, fits
+        return {}, fits, []
     ends = np.concatenate(list(fits.values()))
-    reach = 2 * config.corners.distance + 1e-9
+    reach = 3 * config.corners.distance + move
     lo, hi = ends.min(axis=0) - reach, ends.max(axis=0) + reach
     points = [n for n in bm.near((*lo, *hi), "points") if g.nodes[n]["kind"] in SURFACE_KINDS]
-    xy = np.array([g.nodes[n]["xy"] for n in points]).reshape(-1, 2)
-    near = np.hypot(*(xy[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)) <= reach  # (points, ends)
-    crowded = {
-        lid
-        for j, lid in enumerate(fits)
-        if {points[i] for i in np.flatnonzero(near[:, 2 * j] | near[:, 2 * j + 1])} - set(bm.ends(lid))
-    }
-    for lid in crowded:
-        del fits[lid]
-    while True:  # a corner follows its lines only if all of them can
-        failed = {lid for lid in fits if _corner_moves(bm, lid, fits, config) is None}
+    neighbours = [(d["id"], n) for n in points for _, _, d in g.edges(n, data=True)]
+    while True:  # a line follows its new fit only if the lines its ends meet can follow theirs
+        near = _line_ends(bm, neighbours, fits)
+        failed = {lid for lid in fits if _end_moves(bm, lid, fits, near, config) is None}
         if not failed:
-            return {lines[lid]: lid for lid in fits}, fits
+            return {lines[lid]: lid for lid in fits}, fits, neighbours
         for lid in failed:
             del fits[lid]
 
 
-def _corner_moves(
-    bm: BeliefMap, lid: str, fits: dict[str, NDArray[np.float64]], config: Config
-) -> list[tuple[str, tuple[float, float]]] | None:
-    """Where the end points of the line ``lid`` go when it takes its new fit (lines of ``fits`` take
-    theirs): free ends onto the fit, a corner of two lines to the midpoint of their ends; None if a
-    corner would not stay one."""
+def _line_ends(
+    bm: BeliefMap, neighbours: list[tuple[str, str]], fits: dict[str, NDArray[np.float64]]
+) -> tuple[list[tuple[str, str]], NDArray[np.float64], NDArray[np.float64]]:
+    """The (line, point) pairs, the fit end of each line at its point and each line's unit direction (the
+    lines of ``fits`` with their new fits)."""
     g = bm.graph
-    cos_max = np.cos(np.radians(config.corners.min_angle_deg))
+    stored = [fits.get(m) for m, _ in neighbours]
+    lines = [
+        f if f is not None else np.asarray(g.edges[bm.ends(m)]["fit"], dtype=float)
+        for f, (m, _) in zip(stored, neighbours, strict=True)
+    ]
+    ends = np.array([f[bm.ends(m).index(n)] for f, (m, n) in zip(lines, neighbours, strict=True)]).reshape(-1, 2)
+    d = np.array([f[1] - f[0] for f in lines]).reshape(-1, 2)
+    return neighbours, ends, d / np.hypot(*d.T)[:, None]
+
+
+def _end_moves(
+    bm: BeliefMap,
+    lid: str,
+    fits: dict[str, NDArray[np.float64]],
+    near: tuple[list[tuple[str, str]], NDArray[np.float64], NDArray[np.float64]],
+    config: Config,
+) -> list[tuple[str, tuple[float, float]]] | None:
+    """Where the end points of the line ``lid`` go when it takes its new fit (the lines of ``fits`` take
+    theirs): a free end onto its fit end, a corner of two lines to the midpoint of their fit ends; None if
+    the corners would change (an end meeting an end of ``near`` (:func:`_line_ends`) that it did not meet,
+    or leaving its corner's other line).
+    """
+    g = bm.graph
+    cos_max = np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
+    pairs, their_end, their_u = near
+    own = fits[lid]
+    u = (own[1] - own[0]) / np.hypot(*(own[1] - own[0]))
     moves = []
     for e, node in enumerate(bm.ends(lid)):
-        end = fits[lid][e]
-        if g.nodes[node]["kind"] == "endpoint":
+        end = own[e]
+        close = (np.hypot(*(their_end - end).T) <= config.corners.distance + 1e-9) & (np.abs(their_u @ u) <= cos_max)
+        meets = [pairs[i] for i in np.flatnonzero(close).tolist() if pairs[i][0] != lid]
+        if g.nodes[node]["kind"] == "endpoint" and not meets:
             moves.append((node, (float(end[0]), float(end[1]))))
-            continue
-        if g.degree(node) != 2:
+        elif g.nodes[node]["kind"] == "corner" and g.degree(node) == 2 and len(meets) == 1 and meets[0][1] == node:
+            mid = (end + their_end[pairs.index(meets[0])]) / 2
+            moves.append((node, (float(mid[0]), float(mid[1]))))
+        else:
             return None
-        (other,) = [d for _, _, d in g.edges(node, data=True) if d["id"] != lid]
-        fit = fits.get(other["id"], np.asarray(other["fit"], dtype=float))
-        theirs = fit[bm.ends(other["id"]).index(node)]
-        u, v = fits[lid][1] - fits[lid][0], fit[1] - fit[0]
-        if np.hypot(*(theirs - end)) > config.corners.distance or abs(float(u @ v)) > cos_max * np.hypot(*u) * np.hypot(
-            *v
-        ):
-            return None
-        mid = (end + theirs) / 2
-        moves.append((node, (float(mid[0]), float(mid[1]))))
     return moves
 
 
