@@ -20,12 +20,13 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 
 from evidential import MassFunction, combine
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import Merged, merge_segments
-from evmap.maps.noise import noise_evidence
+from evmap.maps.noise import NoiseEvidence, noise_evidence
 from evmap.maps.segments import CONSOLIDATE_POSES, SegmentStore
 from evmap.maps.sensed import kept_features
 from evmap.sources.config import Config
@@ -55,7 +56,7 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     """Re-merge the surviving segments near the change and re-find the corners there.
 
     ``touched`` are rows of the map's segment store just judged by noise
-    elimination. Returns the ids of every line (re)attached.
+    elimination. Returns the ids of every line (re)attached or refitted in place.
     """
     store = bm.segments
     g = bm.graph
@@ -64,13 +65,23 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     pool = np.union1d(touched, np.concatenate([np.zeros(0, dtype=np.intp), *members]))
     pool = pool[~store.eliminated[pool]]
     merged = merge_segments(store.p[pool], store.q[pool], config.merge, store.seen[pool])
+    evidence = _merged_evidence(bm, pool, merged, config)
 
-    affected = _affected_points(bm, dissolved, merged, config)
+    refits, fits, neighbours = _refits(bm, pool, merged, dissolved, config)
+    near = _line_ends(bm, neighbours, fits)
+    moves = [move for lid in fits for move in _end_moves(bm, lid, fits, near, config) or ()]
+    for k, lid in refits.items():
+        _refit_in_place(bm, lid, pool[merged.groups[k]], fits[lid], (merged, k), evidence, config)
+        del dissolved[lid]
+    for node, xy in moves:
+        bm.set_attrs(node, xy=xy)
+    fresh = [k for k in range(len(merged.groups)) if k not in refits]
+    affected = _affected_points(bm, dissolved, merged, fresh, config)
     histories = {lid: g.edges[ends]["history"] for lid, ends in dissolved.items()}
     kept, removed = _detach(bm, dissolved, affected)
-    lines = kept + _new_lines(bm, pool, merged, histories, config)
+    lines = kept + _new_lines(bm, pool, merged, fresh, evidence, histories, config)
     store.line[touched[store.eliminated[touched]]] = ""
-    return _attach(bm, lines, removed, viewpoint, config)
+    return _attach(bm, lines, removed, viewpoint, config) | set(refits.values())
 
 
 def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> None:
@@ -99,12 +110,15 @@ def fold_records(mass: MassFunction, records: list[dict[str, Any]], rule: str) -
     return mass
 
 
-def _affected_points(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], merged: Merged, config: Config) -> set[str]:
-    """The points whose lines change: the dissolved lines' ends, and points near the new lines' ends."""
+def _affected_points(
+    bm: BeliefMap, dissolved: dict[str, tuple[str, str]], merged: Merged, fresh: list[int], config: Config
+) -> set[str]:
+    """The points whose lines change: the dissolved lines' ends, and points near the ends of the ``fresh``
+    merged lines (those not refitted in place)."""
     g = bm.graph
     affected = {n for ends in dissolved.values() for n in ends}
-    if len(merged.p):
-        ends = np.concatenate([merged.p, merged.q])
+    if fresh:
+        ends = np.concatenate([merged.p[fresh], merged.q[fresh]])
         reach = 2 * config.corners.distance + 1e-9
         lo, hi = ends.min(axis=0) - reach, ends.max(axis=0) + reach
         points = [n for n in bm.near((*lo, *hi), "points") if g.nodes[n]["kind"] in SURFACE_KINDS]
@@ -113,6 +127,127 @@ def _affected_points(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], merge
             d = np.hypot(*(xy[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)).min(axis=1)
             affected |= {points[i] for i in np.flatnonzero(d <= reach)}
     return affected
+
+
+def _refits(
+    bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, dissolved: dict[str, tuple[str, str]], config: Config
+) -> tuple[dict[int, str], dict[str, NDArray[np.float64]], list[tuple[str, str]]]:
+    """The merged lines that only refit a line of the map (merged line -> the line it refits), the new
+    fit of each such line (its ends in the order of the line's end points), and the (line, point) pairs
+    near them (for :func:`_end_moves`).
+
+    A merged line refits the map's line L when its members are all of L's
+    members and segments of no line, its direction is within ``angle_deg`` of
+    L's fit and its ends within ``min(merge distance, corner distance / 2)`` of
+    L's, and each end of L can follow without the corners changing
+    (:func:`_end_moves`): a free end point meeting no other line's end, or a
+    corner of L and one other line whose end it still meets and no other (the
+    corner moves to the new midpoint). L then stays in place, moved onto the
+    merged line (:func:`_refit_in_place`), as a whole rebuild would find it.
+    """
+    store = bm.segments
+    g = bm.graph
+    cos_tol = np.cos(np.radians(config.merge.angle_deg))
+    move = min(config.merge.distance, config.corners.distance / 2)
+    fits: dict[str, NDArray[np.float64]] = {}
+    lines: dict[str, int] = {}
+    for k, group in enumerate(merged.groups):
+        rows = pool[group]
+        owners = set(store.line[rows].tolist()) - {""}
+        if len(owners) != 1:
+            continue
+        (lid,) = owners
+        data = g.edges[dissolved[lid]]
+        if not set(data["members"]) <= set(rows.tolist()):
+            continue
+        old = np.asarray(data["fit"], dtype=float)
+        new = np.stack([merged.p[k], merged.q[k]])
+        if np.hypot(*(new - old[::-1]).T).max() < np.hypot(*(new - old).T).max():
+            new = new[::-1]
+        u, v = old[1] - old[0], new[1] - new[0]
+        cos = abs(float(u @ v)) / (np.hypot(*u) * np.hypot(*v))
+        if np.hypot(*(new - old).T).max() <= move and cos >= cos_tol:
+            fits[lid], lines[lid] = new, k
+    if not fits:
+        return {}, fits, []
+    ends = np.concatenate(list(fits.values()))
+    reach = 3 * config.corners.distance + move
+    lo, hi = ends.min(axis=0) - reach, ends.max(axis=0) + reach
+    points = [n for n in bm.near((*lo, *hi), "points") if g.nodes[n]["kind"] in SURFACE_KINDS]
+    neighbours = [(d["id"], n) for n in points for _, _, d in g.edges(n, data=True)]
+    while True:  # a line follows its new fit only if the lines its ends meet can follow theirs
+        near = _line_ends(bm, neighbours, fits)
+        failed = {lid for lid in fits if _end_moves(bm, lid, fits, near, config) is None}
+        if not failed:
+            return {lines[lid]: lid for lid in fits}, fits, neighbours
+        for lid in failed:
+            del fits[lid]
+
+
+def _line_ends(
+    bm: BeliefMap, neighbours: list[tuple[str, str]], fits: dict[str, NDArray[np.float64]]
+) -> tuple[list[tuple[str, str]], NDArray[np.float64], NDArray[np.float64]]:
+    """The (line, point) pairs, the fit end of each line at its point and each line's unit direction (the
+    lines of ``fits`` with their new fits)."""
+    g = bm.graph
+    stored = [fits.get(m) for m, _ in neighbours]
+    lines = [
+        f if f is not None else np.asarray(g.edges[bm.ends(m)]["fit"], dtype=float)
+        for f, (m, _) in zip(stored, neighbours, strict=True)
+    ]
+    ends = np.array([f[bm.ends(m).index(n)] for f, (m, n) in zip(lines, neighbours, strict=True)]).reshape(-1, 2)
+    d = np.array([f[1] - f[0] for f in lines]).reshape(-1, 2)
+    return neighbours, ends, d / np.hypot(*d.T)[:, None]
+
+
+def _end_moves(
+    bm: BeliefMap,
+    lid: str,
+    fits: dict[str, NDArray[np.float64]],
+    near: tuple[list[tuple[str, str]], NDArray[np.float64], NDArray[np.float64]],
+    config: Config,
+) -> list[tuple[str, tuple[float, float]]] | None:
+    """Where the end points of the line ``lid`` go when it takes its new fit (the lines of ``fits`` take
+    theirs): a free end onto its fit end, a corner of two lines to the midpoint of their fit ends; None if
+    the corners would change (an end meeting an end of ``near`` (:func:`_line_ends`) that it did not meet,
+    or leaving its corner's other line).
+    """
+    g = bm.graph
+    cos_max = np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
+    pairs, their_end, their_u = near
+    own = fits[lid]
+    u = (own[1] - own[0]) / np.hypot(*(own[1] - own[0]))
+    moves = []
+    for e, node in enumerate(bm.ends(lid)):
+        end = own[e]
+        close = (np.hypot(*(their_end - end).T) <= config.corners.distance + 1e-9) & (np.abs(their_u @ u) <= cos_max)
+        meets = [pairs[i] for i in np.flatnonzero(close).tolist() if pairs[i][0] != lid]
+        if g.nodes[node]["kind"] == "endpoint" and not meets:
+            moves.append((node, (float(end[0]), float(end[1]))))
+        elif g.nodes[node]["kind"] == "corner" and g.degree(node) == 2 and len(meets) == 1 and meets[0][1] == node:
+            mid = (end + their_end[pairs.index(meets[0])]) / 2
+            moves.append((node, (float(mid[0]), float(mid[1]))))
+        else:
+            return None
+    return moves
+
+
+def _refit_in_place(
+    bm: BeliefMap,
+    lid: str,
+    members: NDArray[np.intp],
+    fit: NDArray[np.float64],
+    line: tuple[Merged, int],
+    evidence: tuple[NoiseEvidence, NDArray[np.intp]],
+    config: Config,
+) -> None:
+    """The line ``lid`` takes the merged line's members, support, noise-elimination evidence and ``fit``
+    (its end points are moved by the caller); its sonar records stay."""
+    history = bm.graph.edges[bm.ends(lid)]["history"]
+    first, members = _merged_line(bm, lid, members, *line, evidence)
+    records = history[1:]
+    mass = fold_records(MassFunction.from_dict(bm.frame, first["mass"], open_world=True), records, config.rule)
+    bm.set_attrs(lid, mass=mass, history=[first, *records], members=members.tolist(), fit=fit.tolist())
 
 
 def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[str]) -> tuple[list[_Line], Removed]:
@@ -136,46 +271,70 @@ def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[
     return kept, removed
 
 
-def _new_lines(
-    bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, histories: dict[str, list[dict[str, Any]]], config: Config
-) -> list[_Line]:
-    """The merged lines: mass from their merged length and relation (other features from their
-    longest member), and the sonar records of the lines they replace."""
+def _merged_evidence(
+    bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, config: Config
+) -> tuple[NoiseEvidence, NDArray[np.intp]]:
+    """The noise-elimination evidence of the merged lines, from their merged length and relation (other
+    features from their longest member), and how many poses saw each."""
     store = bm.segments
-    if not len(pool):
-        return []
     length = np.hypot(*(store.q[pool] - store.p[pool]).T)
     longest = np.array([pool[group][np.argmax(length[group])] for group in merged.groups], dtype=np.intp)
     features = {name: column[longest] for name, column in store.features.items()}
-    features["lsl_other_poses"] = np.array([_poses_seen(store, pool[group]) - 1 for group in merged.groups])
+    seen = np.array([_poses_seen(store, pool[group]) for group in merged.groups], dtype=np.intp)
+    features["lsl_other_poses"] = seen - 1
     features |= kept_features(bm, longest)
     ends = np.concatenate([store.p[pool], store.q[pool]])
-    space = bm.open_space_near((*ends.min(axis=0), *ends.max(axis=0)))
-    base = noise_evidence(merged.p, merged.q, space, config, features)
+    space = bm.open_space_near((*ends.min(axis=0), *ends.max(axis=0))) if len(pool) else shapely.MultiPolygon()
+    return noise_evidence(merged.p, merged.q, space, config, features), seen
+
+
+def _merged_line(
+    bm: BeliefMap,
+    lid: str,
+    members: NDArray[np.intp],
+    merged: Merged,
+    k: int,
+    evidence: tuple[NoiseEvidence, NDArray[np.intp]],
+) -> tuple[dict[str, Any], NDArray[np.intp]]:
+    """The noise-elimination record of the merged line k (rows ``members``) as the line ``lid``, and its
+    members: the rows, or their consolidated support if more than :data:`CONSOLIDATE_POSES` poses saw them."""
+    store = bm.segments
+    base, seen = evidence
+    first = {
+        "stage": "noise_elimination",
+        "poses": sorted(set(store.pose[members].tolist())),
+        "relation": str(base.relation[k]),
+        "length": float(base.length[k]),
+        "mass": MassFunction.from_dense(bm.frame, base.fused[k], open_world=True).to_dict(),
+    }
+    store.line[members] = lid
+    if seen[k] > CONSOLIDATE_POSES and len(members) > 1:
+        row = store.consolidate(members, merged.p[k], merged.q[k], lid, int(seen[k]))
+        store.relation[row], store.mass[row], store.conflict[row] = base.relation[k], base.fused[k], base.conflict[k]
+        store.eliminated[row] = False
+        members = np.array([row], dtype=np.intp)
+    return first, members
+
+
+def _new_lines(
+    bm: BeliefMap,
+    pool: NDArray[np.intp],
+    merged: Merged,
+    fresh: list[int],
+    evidence: tuple[NoiseEvidence, NDArray[np.intp]],
+    histories: dict[str, list[dict[str, Any]]],
+    config: Config,
+) -> list[_Line]:
+    """The ``fresh`` merged lines: their noise-elimination evidence, and the sonar records of the lines they
+    replace."""
+    store = bm.segments
     lines = []
-    for k, group in enumerate(merged.groups):
-        members = pool[group]
+    for k in fresh:
+        members = pool[merged.groups[k]]
         replaced = set(store.line[members].tolist()) & set(histories)
         records = _carried_records([histories[lid] for lid in sorted(replaced)])
-        first = {
-            "stage": "noise_elimination",
-            "poses": sorted(set(store.pose[members].tolist())),
-            "relation": str(base.relation[k]),
-            "length": float(base.length[k]),
-            "mass": MassFunction.from_dense(bm.frame, base.fused[k], open_world=True).to_dict(),
-        }
         lid = bm.new_id("L")
-        store.line[members] = lid
-        seen = _poses_seen(store, members)
-        if seen > CONSOLIDATE_POSES and len(members) > 1:
-            row = store.consolidate(members, merged.p[k], merged.q[k], lid, seen)
-            store.relation[row], store.mass[row], store.conflict[row] = (
-                base.relation[k],
-                base.fused[k],
-                base.conflict[k],
-            )
-            store.eliminated[row] = False
-            members = np.array([row], dtype=np.intp)
+        first, members = _merged_line(bm, lid, members, merged, k, evidence)
         first_mass = MassFunction.from_dict(bm.frame, first["mass"], open_world=True)
         data = {
             "id": lid,
