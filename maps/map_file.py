@@ -29,6 +29,7 @@ from evidential import RULES, Frame, MassFunction
 from evmap.maps import map_json
 from evmap.maps.occupancy import write_atomic
 from evmap.maps.segments import SegmentStore
+from evmap.maps.sensed import SENSED_KEY, sensed_from_json, sensed_json
 from evmap.sources.config import config_from_data
 from evmap.sources.evidence import MASS_TOLERANCE
 from evmap.sources.loading import InputError
@@ -147,8 +148,10 @@ def map_data(bm: BeliefMap) -> dict[str, Any]:
         ]
         segments = bm.segments.to_json()
         segments["mass"] = codec.encode_rows(bm.segments.mass)
+        kept = sensed_json(bm)  # before the graph's attributes: a loaded map's are read into memory first
         graph = {
             **g.graph,
+            **({SENSED_KEY: kept} if kept is not None else {}),
             "schema_version": SCHEMA_VERSION,
             "open_space": map_json.geojson(bm.open_space),
             "segments": segments,
@@ -340,6 +343,11 @@ class _MapReader:
                     "graph.next_id",
                     f"must map id prefixes {list(ID_PREFIXES)} to whole numbers >= 1, got {map_json.shown(counters)}",
                 )
+        if SENSED_KEY in extras:
+            try:
+                sensed_from_json(extras[SENSED_KEY])
+            except ValueError as exc:
+                raise self.fail(f"graph.{SENSED_KEY}", str(exc)) from None
         if "poses" in extras:
             poses = extras["poses"]
             if not (type(poses) is list and all(type(i) is int and i >= 0 for i in poses)) or len(set(poses)) < len(

@@ -5,7 +5,8 @@ Each cell of the grid holds a mass function over the frame {free, occupied}
 (column = focal-set bitmask, as in :func:`evidential.combine_batch`). Two sources
 of evidence are combined in every cell by the map's rule:
 
-- **free**: a cell whose centre lies in the sonar open space gets
+- **free**: a cell whose centre lies in the map's free space (:mod:`evmap.maps.free_space`:
+  sonar sectors and contour rays of every pose, ending at the believed lines) gets
   ``m(free) = free_mass``, the rest on ``free|occupied``; other cells are vacuous;
 - **occupied**: a cell crossed by a line, or holding a corner or an unidentified
   object, gets ``m(occupied) = occupied_mass * Bel(real)`` of the strongest such
@@ -38,6 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 from pydantic import BaseModel, ConfigDict, Field
 
 from evidential import Frame, combine_batch
+from evmap.maps.free_space import free_space
 from evmap.maps.planner import state
 
 if TYPE_CHECKING:
@@ -347,7 +349,8 @@ def occupancy_masses(
 
     Columns of the last axis: m(∅), m(free), m(occupied), m(free|occupied);
     row 0 is the lowest y; ``origin`` is the lower-left corner of cell (0, 0).
-    Free evidence from the open space, occupied evidence from every line,
+    Free evidence from the map's free space (:func:`evmap.maps.free_space.free_space`), occupied evidence
+    from every line,
     corner and unidentified object weighted by its belief, combined by the
     map's rule (see the module doc).
     """
@@ -357,11 +360,12 @@ def occupancy_masses(
     p = np.concatenate([s.p, xy])
     q = np.concatenate([s.q, xy])
     belief = np.concatenate([s.line_bel, s.point_bel[solid]])
-    everything = np.concatenate([s.xy, shapely.get_coordinates(bm.open_space)])
+    free = free_space(bm)
+    everything = np.concatenate([s.xy, shapely.get_coordinates(free)])
     if not len(everything):
         raise ValueError("the map is empty (no points, no open space): an occupancy grid has no extent")
     bounds = (*everything.min(axis=0), *everything.max(axis=0))
-    return evidential_grid(bm.open_space, p, q, belief, bounds, resolution, bm.rule, params)
+    return evidential_grid(free, p, q, belief, bounds, resolution, bm.rule, params)
 
 
 def occupancy_grid(bm: BeliefMap, resolution: float = 0.05, params: OccupancyParams | None = None) -> NDArray[np.int8]:

@@ -4,24 +4,42 @@ The noise-elimination features of :mod:`evmap.maps.contour_free_space` and
 :mod:`evmap.maps.sonar_forward` test a segment against the readings of every
 pose: the stripe's rays (free from the sensor to their point) and the sonar
 scan. :func:`remember` keeps them per map as the map's observations are folded.
+
+:func:`sensed_json` and :func:`sensed_from_json` give them (and the features last
+computed from them) the form that ``map.json`` keeps in its optional graph key
+``sensed``, so a loaded map goes on updating as the map that was saved.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
 
 import numpy as np
 from numpy.typing import NDArray
 
+from evmap.sources.params import SonarParams
 from evmap.sources.readings import SonarScan
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
     from evmap.maps.observation import Observation
 
-__all__ = ["SENSED_FEATURES", "Sensed", "keep_features", "kept_features", "remember", "sensed"]
+__all__ = [
+    "SENSED_FEATURES",
+    "SENSED_KEY",
+    "Sensed",
+    "keep_features",
+    "kept_features",
+    "remember",
+    "sensed",
+    "sensed_from_json",
+    "sensed_json",
+]
+
+SENSED_KEY = "sensed"
+"""The graph attribute of ``map.json`` that keeps what the poses sensed (optional)."""
 
 SENSED_FEATURES = {"contour_free": "clear", "lsl_persistence": "unobserved", "sonar_forward": "silent"}
 """The features computed from the sensed readings, and the value that is no evidence."""
@@ -37,14 +55,14 @@ class Sensed:
     origin : (2,) the sensors' position.
     bearing : (K,) world bearing of every stripe ray, wrapped to [-pi, pi), sorted.
     range : (K,) its measured range (m), NaN where nothing returned.
-    sonar : the pose's sonar scan.
+    sonar : the pose's sonar scan; None without sonar.
     """
 
     pose_index: int
     origin: NDArray[np.float64]
     bearing: NDArray[np.float64]
     range: NDArray[np.float64]
-    sonar: SonarScan
+    sonar: SonarScan | None
 
 
 _MEMORY: WeakKeyDictionary[BeliefMap, dict[int, Sensed]] = WeakKeyDictionary()
@@ -68,18 +86,105 @@ def remember(bm: BeliefMap, obs: Observation) -> Sensed:
     bearing = (rays[:, 0] + np.pi) % (2 * np.pi) - np.pi
     order = np.argsort(bearing, kind="stable")
     kept = Sensed(int(obs.pose_index), np.array(obs.pose[:2]), bearing[order], rays[order, 1], obs.sonar)
-    _MEMORY.setdefault(bm, {})[kept.pose_index] = kept
+    _memory(bm)[kept.pose_index] = kept
     return kept
+
+
+def _memory(bm: BeliefMap) -> dict[int, Sensed]:
+    """The map's remembered readings; those of a loaded map come from its graph attribute, read once."""
+    if bm not in _MEMORY:
+        kept, features = sensed_from_json(bm.graph.graph.pop(SENSED_KEY, None))
+        _MEMORY[bm] = {s.pose_index: s for s in kept}
+        if features:
+            _FEATURES[bm] = features
+    return _MEMORY[bm]
 
 
 def sensed(bm: BeliefMap) -> list[Sensed]:
     """The readings of every pose remembered for this map, by pose index."""
-    memory = _MEMORY.get(bm, {})
+    memory = _memory(bm)
     return [memory[k] for k in sorted(memory)]
+
+
+def _floats(values: NDArray[np.float64]) -> list[float | None]:
+    """JSON numbers, None for NaN."""
+    return [None if np.isnan(v) else float(v) for v in values.tolist()]
+
+
+def sensed_json(bm: BeliefMap) -> dict[str, Any] | None:
+    """What the map's poses sensed and the features last computed from it, as JSON; None if nothing was.
+
+    >>> from evmap.maps.belief_map import new_map
+    >>> from evmap.maps.observation import observe
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.scenario import default_scenario
+    >>> from evmap.sources.sim.world import World
+    >>> bm = new_map(load_config())
+    >>> kept = remember(bm, observe(World(default_scenario()), 0, load_config()))
+    >>> (back,), _ = sensed_from_json(sensed_json(bm))
+    >>> bool(np.array_equal(back.range, kept.range, equal_nan=True) and np.array_equal(back.sonar.ranges,
+    ...                                                                                kept.sonar.ranges))
+    True
+    """
+    poses = sensed(bm)
+    if not poses:
+        return None
+    records = []
+    for s in poses:
+        sonar = None
+        if s.sonar is not None:
+            sonar = {
+                "pose": s.sonar.pose.tolist(),
+                "angles": s.sonar.angles.tolist(),
+                "ranges": s.sonar.ranges.tolist(),
+                "params": s.sonar.params.model_dump(),
+            }
+        record = {"pose_index": s.pose_index, "origin": s.origin.tolist(), "bearing": s.bearing.tolist()}
+        records.append({**record, "range": _floats(s.range), "sonar": sonar})
+    features = {name: column.tolist() for name, column in _FEATURES.get(bm, {}).items()}
+    return {"poses": records, "features": features}
+
+
+def sensed_from_json(data: Any) -> tuple[list[Sensed], dict[str, NDArray[np.str_]]]:
+    """The readings and features of :func:`sensed_json` (None: none); ``ValueError`` names what is wrong.
+
+    >>> sensed_from_json({"poses": [{"pose_index": 0, "origin": [0, 0], "bearing": [0.1], "range": [None, 2]}]})
+    Traceback (most recent call last):
+    ...
+    ValueError: poses[0]: bearing and range have 1 and 2 entries
+    """
+    if data is None:
+        return [], {}
+    if not isinstance(data, dict) or not isinstance(data.get("poses"), list):
+        raise ValueError("must be an object with a list 'poses'")  # noqa: TRY004
+    kept = []
+    for k, record in enumerate(data["poses"]):
+        try:
+            bearing = np.array(record["bearing"], dtype=float).reshape(-1)
+            rng = np.array([np.nan if r is None else r for r in record["range"]], dtype=float).reshape(-1)
+            origin = np.array(record["origin"], dtype=float).reshape(2)
+            sonar = record.get("sonar")
+            scan = None
+            if sonar is not None:
+                params = SonarParams(**sonar["params"])
+                scan = SonarScan.from_readings(sonar["angles"], sonar["ranges"], params, pose=sonar["pose"])
+            index = record["pose_index"]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"poses[{k}]: {exc}") from None
+        if len(bearing) != len(rng):
+            raise ValueError(f"poses[{k}]: bearing and range have {len(bearing)} and {len(rng)} entries")
+        if type(index) is not int or index < 0:
+            raise ValueError(f"poses[{k}].pose_index: a pose index is a whole number >= 0, got {index!r}")
+        kept.append(Sensed(index, origin, bearing, rng, scan))
+    features = data.get("features", {})
+    if not isinstance(features, dict) or not set(features) <= set(SENSED_FEATURES):
+        raise ValueError(f"features: must map some of {sorted(SENSED_FEATURES)} to lists of values")
+    return kept, {name: np.array(values, dtype="<U12").reshape(-1) for name, values in features.items()}
 
 
 def keep_features(bm: BeliefMap, ids: NDArray[np.intp], features: dict[str, NDArray[np.str_]]) -> None:
     """Keep the sensed features last computed for the map's segments ``ids`` (rows of its segment store)."""
+    _memory(bm)
     kept = _FEATURES.setdefault(bm, {})
     rows = len(bm.segments)
     for name, values in features.items():
@@ -92,6 +197,7 @@ def keep_features(bm: BeliefMap, ids: NDArray[np.intp], features: dict[str, NDAr
 
 def kept_features(bm: BeliefMap, ids: NDArray[np.intp]) -> dict[str, NDArray[np.str_]]:
     """The sensed features last computed for segments ``ids``; no evidence for those never computed."""
+    _memory(bm)
     kept = _FEATURES.get(bm, {})
     ids = np.asarray(ids, dtype=np.intp)
     out = {}

@@ -128,6 +128,8 @@ def sonar_forward(
     length = np.maximum(np.hypot(*e.T), 1e-12)
     for s in poses:
         scan = s.sonar
+        if scan is None:
+            continue
         edge = scan.params.edge_strength
         o = scan.pose[:2]
         t = ((o - p) * e).sum(axis=1) / length**2

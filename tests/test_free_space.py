@@ -1,0 +1,51 @@
+"""The map's free space ends at its believed lines; the free space a pose sees stays free."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+
+from evmap import configs
+from evmap.maps import new_map
+from evmap.maps.free_space import free_space
+from evmap.maps.observation import observe
+from evmap.maps.sensed import sensed
+from evmap.sources.config import load_config
+from evmap.sources.geometry import segment_distances
+from evmap.sources.sim.scenario import load_scenario
+from evmap.sources.sim.world import World
+
+
+@pytest.fixture(scope="module")
+def bm():
+    config = load_config(configs.path("default.yaml"))
+    world = World(load_scenario(configs.path("scenarios/patrol.yaml")))
+    bm = new_map(config)
+    for k in range(3):
+        bm.update(observe(world, k, config))
+    return bm
+
+
+def test_no_free_point_lies_behind_a_believed_line_from_every_pose(bm):
+    free = free_space(bm)
+    xmin, ymin, xmax, ymax = free.bounds
+    x, y = np.meshgrid(np.arange(xmin, xmax, 0.1), np.arange(ymin, ymax, 0.1))
+    xy = np.column_stack([x.ravel(), y.ravel()])
+    xy = xy[shapely.contains_xy(free, xy[:, 0], xy[:, 1])]
+    lines = bm.lines(min_belief=0.5)
+    p, q = np.array([ln.p for ln in lines]), np.array([ln.q for ln in lines])
+    hidden = np.ones(len(xy), dtype=bool)
+    for s in sensed(bm):
+        d = xy - s.origin
+        short = s.origin + d * (1 - 0.01 / np.maximum(np.hypot(*d.T), 0.01))[:, None]  # 1 cm before the point
+        hidden &= (segment_distances(s.origin[None, None], short[:, None], p[None], q[None]) == 0).any(axis=1)
+    assert len(xy) > 100 and not hidden.any()
+
+
+def test_what_the_rays_crossed_in_front_of_the_lines_is_free(bm):
+    free = free_space(bm)
+    s = sensed(bm)[0]
+    ok = np.isfinite(s.range) & (s.range > 0.5)
+    mid = s.origin + (s.range[ok] / 2)[:, None] * np.column_stack([np.cos(s.bearing[ok]), np.sin(s.bearing[ok])])
+    assert shapely.contains_xy(free, mid[:, 0], mid[:, 1]).mean() > 0.95
