@@ -34,6 +34,7 @@ import fnmatch
 import glob
 import json
 import os
+import secrets
 import shutil
 import sys
 import tempfile
@@ -285,7 +286,7 @@ def _lock(out: Path) -> Path:
     again before it is dropped, so two runs never both take it over.
     """
     lock = out.parent / f".{out.name}.evmap-lock"
-    mine = out.parent / f".{out.name}.evmap-lock.{os.getpid()}"
+    mine = out.parent / f".{out.name}.evmap-lock.{os.getpid()}.{secrets.token_hex(4)}"  # one per claim, even in threads
     try:
         mine.write_text(f"{os.getpid()}\n")
     except OSError as exc:
@@ -300,7 +301,7 @@ def _lock(out: Path) -> Path:
             pid = _pid_in(lock)
             if pid is not None and _alive(pid):
                 raise OutputError(f"--out {out}: another evmap (process {pid}) is writing it")
-            grabbed = out.parent / f".{out.name}.evmap-lock.{os.getpid()}.stale"
+            grabbed = out.parent / f".{out.name}.evmap-lock.{os.getpid()}.{secrets.token_hex(4)}.stale"
             try:
                 os.rename(lock, grabbed)
             except FileNotFoundError:
