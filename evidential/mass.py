@@ -461,9 +461,14 @@ class MassFunction:
 
 
 def _read_only(masks: NDArray[np.int64], masses: NDArray[np.float64]) -> Stack:
-    """A stack of read-only views of the arrays (a mass function's arrays never change)."""
-    masks, masses = masks.view(), masses.view()
-    masks.setflags(write=False)
+    """A stack of read-only arrays (a mass function's arrays never change).
+
+    ``masses`` must be the caller's own new array or view: it is made read-only in place.
+    ``masks`` is viewed read-only, unless it already is read-only (shared as it is).
+    """
+    if masks.flags.writeable:
+        masks = masks.view()
+        masks.setflags(write=False)
     masses.setflags(write=False)
     return Stack(masks, masses)
 

@@ -224,9 +224,9 @@ def dempster_python(sources: list[Stack], n: int) -> Stack | None:
     ([1, 2, 3], [0.3333333333333333, 0.3333333333333333, 0.3333333333333333])
     """
     size = 1 << n
-    masks, masses = sources[0].masks.tolist(), sources[0].masses[:, 0].tolist()
+    masks, masses = sources[0].masks.tolist(), sources[0].masses.ravel().tolist()
     for s in sources[1:]:
-        ys, ws = s.masks.tolist(), s.masses[:, 0].tolist()
+        ys, ws = s.masks.tolist(), s.masses.ravel().tolist()
         table = [0.0] * size
         for x, wx in zip(masks, masses):
             for y, wy in zip(ys, ws):
@@ -261,7 +261,7 @@ def dempster_fold(sources: list[Stack], n: int, budget: float = math.inf) -> Sta
     :class:`TotalConflictError` where a step is in total conflict or underflows
     (see :func:`dempster_pair`).
     """
-    if n <= PYTHON_MAX_BITS and all(s.masks.size <= PYTHON_MAX_SETS for s in sources):
+    if (1 << n) <= PYTHON_MAX_SETS or (n <= PYTHON_MAX_BITS and all(s.masks.size <= PYTHON_MAX_SETS for s in sources)):
         result = dempster_python(sources, n)
         if result is None:
             raise TotalConflictError("total conflict or underflow in the pairwise fold")
