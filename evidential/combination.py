@@ -162,5 +162,7 @@ def _support(dense: NDArray[np.float64]) -> Stack:
     """The stack of a dense (2**n, N) batch, without the sets of mass 0 in every row where
     they are half of the sets or more (fewer sets, fewer pairs; below that, the copy costs
     more than the pairs it saves)."""
-    used = np.flatnonzero(dense.max(axis=1) > 0)  # masses are >= 0
-    return full(dense) if 2 * used.size > dense.shape[0] else Stack(used, dense[used])
+    used = dense.max(axis=1) > 0  # masses are >= 0
+    if 2 * np.count_nonzero(used) > dense.shape[0]:
+        return full(dense)
+    return Stack(np.flatnonzero(used), dense[used])

@@ -334,14 +334,21 @@ def transform_product(sources: list[Stack], n: int, superset: bool) -> NDArray[n
     """Dense m of the conjunctive (superset) or disjunctive (subset) combination via
     the product of commonalities (or implicabilities); round-off below the error
     bound is set to 0."""
-    product = sweep(to_dense(sources[0], n), superset, inverse=False)
+    product = _zeta(sources[0], n, superset)
     for s in sources[1:]:
-        product *= sweep(to_dense(s, n), superset, inverse=False)
+        product *= _zeta(s, n, superset)
     m = sweep(product, superset, inverse=True)
-    small = m <= 64 * (n + len(sources)) * np.finfo(np.float64).eps
-    if small.any():  # the boolean assignment costs more than the test
-        m[small] = 0.0
+    tolerance = 64 * (n + len(sources)) * np.finfo(np.float64).eps
+    if m.min() <= tolerance:  # one reduction where nothing is that small (the usual case)
+        m[m <= tolerance] = 0.0
     return m
+
+
+def _zeta(s: Stack, n: int, superset: bool) -> NDArray[np.float64]:
+    """The zeta transform of a stack as a new dense (2**n, N) array (the stack left as it is)."""
+    if s.masks.size == 1 << n:  # all the sets: the transform's first step reads them, no copy first
+        return sweep(s.masses, superset, inverse=False, out=np.empty(s.masses.shape))
+    return sweep(to_dense(s, n), superset, inverse=False)
 
 
 def membership(masks: NDArray, n: int) -> NDArray[np.float64]:
