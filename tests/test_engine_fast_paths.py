@@ -1,5 +1,5 @@
 """The fast paths give the general paths' answers: the plain-Python Dempster fold of tiny frames,
-the int32 batched queries, the unpacked-bits membership."""
+the int32 batched queries, the unpacked-bits membership, the zeta transform into a new array."""
 
 from functools import reduce
 
@@ -19,7 +19,7 @@ from evidential.stack import (
     element_masses,
     membership,
 )
-from evidential.transforms import pignistic
+from evidential.transforms import pignistic, sweep
 
 weight = st.one_of(st.floats(0.01, 1.0), st.sampled_from([1e-200, 1e-160, 1e-300]))
 
@@ -129,3 +129,14 @@ def test_sparse_pignistic_equals_the_dense_transform(with_empty):
     dense[masks] = w
     sparse = element_masses(Stack(masks, w[:, None]), 10, split=True)[:, 0]
     np.testing.assert_allclose(sparse, pignistic(dense), rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("superset", [True, False])
+@pytest.mark.parametrize("inverse", [True, False])
+@pytest.mark.parametrize("shape", [(2,), (16,), (8, 5), (1024, 3)])
+def test_sweep_into_a_new_array_is_the_sweep_in_place(superset, inverse, shape):
+    x = np.random.default_rng(shape[0]).random(shape)
+    before = x.copy()
+    into = sweep(x, superset, inverse, out=np.empty(shape))
+    assert into.tolist() == sweep(x.copy(), superset, inverse).tolist()  # the same bits
+    assert x.tolist() == before.tolist()  # the input left as it is
