@@ -52,12 +52,13 @@ def consonant_from_possibility(frame: Frame, possibility: Mapping[str, float]) -
 
     positions, pi = frame.positions, [0.0] * len(frame)
     for name, value in possibility.items():
-        if name not in positions or not ((type(value) is float or _is_number(value)) and value >= 0):
+        i = positions.get(name)
+        if i is None or not ((type(value) is float or _is_number(value)) and value >= 0):
             raise refused()
-        pi[positions[name]] = float(value)
+        pi[i] = float(value)
     if not abs(max(pi) - 1.0) <= 1e-9:
         raise refused()
-    ranked = sorted(((v, 1 << i) for i, v in enumerate(pi) if v > 0), reverse=True)
+    ranked = sorted([(v, 1 << i) for i, v in enumerate(pi) if v > 0], reverse=True)
     masks, steps, cut = [], [], 0
     for (level, bit), (lower, _) in zip(ranked, [*ranked[1:], (0.0, 0)]):
         cut |= bit
@@ -130,9 +131,10 @@ def imprecise_dirichlet(frame: Frame, counts: Mapping[str, float], s: float = 2.
     for name, c in counts.items():
         if not ((type(c) is int or _is_number(c)) and 0 <= c < math.inf):
             raise MassError(f"count of {name!r} must be a finite number >= 0, got {c!r}")
-        if name not in positions:
+        i = positions.get(name)
+        if i is None:
             raise MassError(f"counts name elements not in {frame!r}: {sorted(set(counts) - set(frame.elements))}")
-        n[positions[name]] = float(c)
+        n[i] = float(c)
     if len(frame) == 1:
         return MassFunction(frame, {frame.full: 1.0})
     total = math.fsum(n) + s
