@@ -17,7 +17,6 @@ from evidential.stack import (
     dempster_fold,
     dempster_scaled,
     full,
-    mobius_cost,
     to_dense,
 )
 
@@ -76,7 +75,7 @@ def combine(*masses: MassFunction, rule: str | RuleFunction = "dempster") -> Mas
         # pair by pair (the rule's sums in fewer numpy calls) unless that costs twice the Möbius
         # strategy (which redoes the fold near total conflict)
         try:
-            folded = dempster_fold(stacks, n, budget=2.0 * mobius_cost(stacks, n))
+            folded = dempster_fold(stacks, n, margin=2.0)
         except TotalConflictError:
             return MassFunction.from_stack(frame, dempster_scaled(stacks, n))
         if folded is not None:

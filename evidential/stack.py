@@ -251,13 +251,14 @@ def _small_masks(masks: tuple[int, ...]) -> NDArray[np.int64]:
     return array
 
 
-def dempster_fold(sources: list[Stack], n: int, budget: float = math.inf) -> Stack | None:
+def dempster_fold(sources: list[Stack], n: int, margin: float = math.inf) -> Stack | None:
     """Dempster's rule of two or more single mass functions folded pair by pair (each step
     normalised, ∅ dropped): ``combine(combine(a, b), c)`` without the objects.
 
-    None, before a step, where the rest of the fold would cost more than ``budget``
-    (element operations, as :func:`mobius_cost_wins` counts them) at the current
-    number of focal sets: the steps done are spent either way. Raises
+    None, before a step, where the rest of the fold would cost more than ``margin`` times
+    the Möbius strategy (:func:`mobius_cost`; element operations, as :func:`mobius_cost_wins`
+    counts them) at the current number of focal sets: the steps done are spent either
+    way. On tiny frames the fold runs in plain Python (:func:`dempster_python`). Raises
     :class:`TotalConflictError` where a step is in total conflict or underflows
     (see :func:`dempster_pair`).
     """
@@ -266,6 +267,7 @@ def dempster_fold(sources: list[Stack], n: int, budget: float = math.inf) -> Sta
         if result is None:
             raise TotalConflictError("total conflict or underflow in the pairwise fold")
         return result
+    budget = margin * mobius_cost(sources, n)
     result, steps = sources[0], len(sources) - 1
     pairs = sum(s.masks.size for s in sources[1:])  # focal sets still to meet
     for s in sources[1:]:
