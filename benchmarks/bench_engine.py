@@ -83,7 +83,10 @@ def rounds_of(impls: list[Impl], budget: float = 3.0, most: int = 25) -> list[np
 
     Each round times every implementation once, over a batch of calls lasting
     about 5 ms, so that all see the same state of the machine (this VM's speed
-    drifts within a process).
+    drifts within a process). The order rotates from round to round: whatever
+    runs right after a peer that sweeps large tensors (torchbelief dense) finds
+    the caches and the heap cold, and a fixed order would always give that cost
+    to the same implementation.
     """
     number = []
     for _, f in impls:
@@ -91,9 +94,11 @@ def rounds_of(impls: list[Impl], budget: float = 3.0, most: int = 25) -> list[np
         f()
         number.append(max(1, int(0.005 / max(time.perf_counter() - t, 1e-7))))
     times: list[list[float]] = [[] for _ in impls]
+    entries = list(zip(impls, number, times))
     start = time.perf_counter()
     while len(times[0]) < most and (len(times[0]) < 5 or time.perf_counter() - start < budget):
-        for (_, f), k, ts in zip(impls, number, times):
+        turn = len(times[0]) % len(entries)
+        for (_, f), k, ts in entries[turn:] + entries[:turn]:
             t = time.perf_counter()
             for _ in range(k):
                 f()

@@ -17,7 +17,6 @@ from evidential.stack import (
     dempster_fold,
     dempster_scaled,
     full,
-    mobius_cost,
     to_dense,
 )
 
@@ -76,7 +75,7 @@ def combine(*masses: MassFunction, rule: str | RuleFunction = "dempster") -> Mas
         # pair by pair (the rule's sums in fewer numpy calls) unless that costs twice the Möbius
         # strategy (which redoes the fold near total conflict)
         try:
-            folded = dempster_fold(stacks, n, budget=2.0 * mobius_cost(stacks, n))
+            folded = dempster_fold(stacks, n, margin=2.0)
         except TotalConflictError:
             return MassFunction.from_stack(frame, dempster_scaled(stacks, n))
         if folded is not None:
@@ -162,5 +161,7 @@ def _support(dense: NDArray[np.float64]) -> Stack:
     """The stack of a dense (2**n, N) batch, without the sets of mass 0 in every row where
     they are half of the sets or more (fewer sets, fewer pairs; below that, the copy costs
     more than the pairs it saves)."""
-    used = np.flatnonzero(dense.max(axis=1) > 0)  # masses are >= 0
-    return full(dense) if 2 * used.size > dense.shape[0] else Stack(used, dense[used])
+    used = dense.max(axis=1) > 0  # masses are >= 0
+    if 2 * np.count_nonzero(used) > dense.shape[0]:
+        return full(dense)
+    return Stack(np.flatnonzero(used), dense[used])

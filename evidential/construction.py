@@ -3,6 +3,7 @@ from samples, and the imprecise Dirichlet model for multinomial counts."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from numbers import Real
 
@@ -37,19 +38,41 @@ def consonant_from_possibility(frame: Frame, possibility: Mapping[str, float]) -
     """The consonant mass function of a possibility distribution π (max π = 1):
     the nested cuts {π >= π_k} get π_k - π_(k+1) (Dubois & Prade 1988, "Possibility theory").
 
+    Plain Python: the elements sorted by π, the cuts grown one level at a time (at most n
+    focal sets, where numpy's calls would cost more than the work).
+
     Examples
     --------
     >>> consonant_from_possibility(Frame(["a", "b", "c"]), {"a": 1.0, "b": 0.5, "c": 0.2}).to_dict()
     {'a': 0.5, 'a|b': 0.3, 'a|b|c': 0.2}
     """
-    pi = np.array([possibility.get(name, 0.0) for name in frame.elements], dtype=np.float64)
-    unknown = set(possibility) - set(frame.elements)
-    if unknown or not (pi.min() >= 0 and abs(pi.max() - 1.0) <= 1e-9):
-        raise MassError(f"possibility must map elements of {frame!r} to [0, 1] with maximum 1, got {possibility!r}")
-    levels = np.unique(pi[pi > 0])  # increasing: the cuts {π >= level} shrink, their bitmasks decrease
-    cuts = ((pi[None, :] >= levels[:, None]) << np.arange(len(frame))).sum(axis=1)
-    steps = levels - np.append(0.0, levels[:-1])
-    return MassFunction.from_stack(frame, Stack(cuts[::-1], (steps / steps.sum())[::-1, None]))
+
+    def refused() -> MassError:
+        return MassError(f"possibility must map elements of {frame!r} to [0, 1] with maximum 1, got {possibility!r}")
+
+    positions, pi = frame.positions, [0.0] * len(frame)
+    for name, value in possibility.items():
+        i = positions.get(name)
+        if i is None or not ((type(value) is float or _is_number(value)) and value >= 0):
+            raise refused()
+        pi[i] = float(value)
+    if not abs(max(pi) - 1.0) <= 1e-9:
+        raise refused()
+    ranked = sorted([(v, 1 << i) for i, v in enumerate(pi) if v > 0], reverse=True)
+    masks, steps, cut = [], [], 0
+    for (level, bit), (lower, _) in zip(ranked, [*ranked[1:], (0.0, 0)]):
+        cut |= bit
+        if lower < level:  # the last element of its level: the cut {π >= level} is complete
+            masks.append(cut)
+            steps.append(level - lower)
+    masses = np.array(steps) / math.fsum(steps)
+    stack = Stack(np.array(masks, dtype=frame.dtype), masses[:, None])
+    return MassFunction.from_stack(frame, stack, positive=True)  # steps > 0, total <= 1 + 1e-9
+
+
+def _is_number(value: object) -> bool:
+    """A real number and not a bool (int and float checked first: the ABC check is slow)."""
+    return type(value) in (int, float) or (isinstance(value, Real) and not isinstance(value, bool))
 
 
 def consonant_from_samples(frame: Frame, samples: Iterable[str]) -> MassFunction:
@@ -101,16 +124,27 @@ def imprecise_dirichlet(frame: Frame, counts: Mapping[str, float], s: float = 2.
     >>> imprecise_dirichlet(Frame(["a", "b", "c"]), {"a": 4, "b": 2}).to_dict()
     {'a': 0.5, 'b': 0.25, 'a|b|c': 0.25}
     """
-    if isinstance(s, bool) or not isinstance(s, Real) or not 0 < s < np.inf:
+    if not (_is_number(s) and 0 < s < math.inf):
         raise MassError(f"s (the prior strength) must be a finite number > 0, got {s!r}")
+    # plain Python: n + 1 focal sets at most, fewer calls than numpy would make
+    positions, n = frame.positions, [0.0] * len(frame)
     for name, c in counts.items():
-        if isinstance(c, bool) or not isinstance(c, Real) or not 0 <= c < np.inf:
+        if not ((type(c) is int or _is_number(c)) and 0 <= c < math.inf):
             raise MassError(f"count of {name!r} must be a finite number >= 0, got {c!r}")
-    n = np.array([float(counts.get(name, 0.0)) for name in frame.elements])
-    if set(counts) - set(frame.elements):
-        raise MassError(f"counts name elements not in {frame!r}: {sorted(set(counts) - set(frame.elements))}")
-    masses = np.append(n, s) / (n.sum() + s)
+        i = positions.get(name)
+        if i is None:
+            raise MassError(f"counts name elements not in {frame!r}: {sorted(set(counts) - set(frame.elements))}")
+        n[i] = float(c)
     if len(frame) == 1:
         return MassFunction(frame, {frame.full: 1.0})
-    masks = np.append(np.int64(1) << np.arange(len(frame)), frame.full)  # increasing, distinct
-    return MassFunction.from_stack(frame, Stack(masks, masses[:, None]))
+    total = math.fsum(n) + s
+    masks, masses = [], []
+    for i, c in enumerate(n):
+        share = c / total
+        if share > 0:  # not a zero count, nor a tiny one lost to underflow
+            masks.append(1 << i)
+            masses.append(share)
+    masks.append(frame.full)  # increasing, distinct
+    masses.append(s / total)
+    stack = Stack(np.array(masks, dtype=frame.dtype), np.array(masses)[:, None])
+    return MassFunction.from_stack(frame, stack, positive=masses[-1] > 0)

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
+from types import MappingProxyType
 
 import numpy as np
 
@@ -64,6 +65,17 @@ class Frame:
     def elements(self) -> tuple[str, ...]:
         """The element names, in frame order."""
         return self._elements
+
+    @property
+    def positions(self) -> Mapping[str, int]:
+        """Element name to its position ``i`` (its bit is ``1 << i``), read-only.
+
+        Examples
+        --------
+        >>> Frame(["a", "b"]).positions["b"], "c" in Frame(["a", "b"]).positions
+        (1, False)
+        """
+        return MappingProxyType(self._index)
 
     def __len__(self) -> int:
         return len(self._elements)

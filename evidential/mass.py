@@ -18,6 +18,9 @@ from evidential.stack import DENSE_MAX_BITS, Stack, element_masses
 SUM_TOLERANCE = 1e-9
 """Largest accepted distance of the total mass from 1."""
 
+QUERY_INT32_BITS = 31
+"""Up to this many elements, the batched queries test int32 bitmasks."""
+
 
 class MassFunction:
     """A mass function (basic belief assignment) over a frame.
@@ -304,18 +307,24 @@ class MassFunction:
         out[self._stack.masks] = self._stack.masses[:, 0]
         return out
 
-    def _many(self, focal: Focal | list[Focal] | NDArray) -> NDArray | None:
-        """The bitmasks of a list or array of focal sets; None for one focal set."""
-        if isinstance(focal, list | np.ndarray):
-            return _masks(self.frame, focal, distinct=False)
-        return None
+    def _operands(self, focal: Focal | list[Focal] | NDArray) -> tuple[NDArray, int | NDArray]:
+        """The focal sets' bitmasks and the queried set: an int for one focal set, a (Q, 1)
+        column for a list or a 1-D array of them, both int32 where the frame fits in 31 bits
+        (half the memory a (Q, K) test goes through)."""
+        masks = self._stack.masks
+        if not isinstance(focal, list | np.ndarray):
+            return masks, self.frame.mask(focal)
+        sets = _masks(self.frame, focal, distinct=False)
+        if len(self.frame) <= QUERY_INT32_BITS:
+            return masks.astype(np.int32), sets.astype(np.int32)[:, None]
+        return masks, sets[:, None]
 
     def _sums(self, selected: NDArray[np.bool_]) -> float | NDArray[np.float64]:
         """The mass of the selected focal sets: a float for (K,), an array for (Q, K)."""
         masses = self._stack.masses[:, 0]
         if selected.ndim == 1:
             return float(masses[selected].sum())
-        return np.where(selected, masses, 0.0).sum(axis=1)
+        return np.einsum("qk,k->q", selected, masses)  # no (Q, K) float temporary, no BLAS threads
 
     def belief(self, focal: Focal | list[Focal] | NDArray) -> float | NDArray[np.float64]:
         """bel(A): the mass of the non-empty focal sets inside A.
@@ -333,9 +342,11 @@ class MassFunction:
         >>> m.belief("a|b"), m.belief(["a", "a|b", 7]).tolist(), m.belief(np.array([4, 0])).tolist()
         (0.75, [0.5, 0.75, 1.0], [0.25, 0.0])
         """
-        masks, sets = self._stack.masks, self._many(focal)
-        a = self.frame.mask(focal) if sets is None else sets[:, None]
-        return self._sums((masks & ~a == 0) & (masks != 0))
+        masks, a = self._operands(focal)
+        selected = masks & ~a == 0
+        if masks[0] == 0:  # increasing: ∅ can only come first
+            selected[..., 0] = False
+        return self._sums(selected)
 
     def plausibility(self, focal: Focal | list[Focal] | NDArray) -> float | NDArray[np.float64]:
         """pl(A): the mass of the focal sets meeting A; a list or array of sets gives an array (see :meth:`belief`).
@@ -345,8 +356,8 @@ class MassFunction:
         >>> MassFunction(Frame(["a", "b", "c"]), {"a": 0.5, "a|b": 0.25, "c": 0.25}).plausibility([2, 6]).tolist()
         [0.25, 0.5]
         """
-        sets = self._many(focal)
-        return self._sums(self._stack.masks & (self.frame.mask(focal) if sets is None else sets[:, None]) != 0)
+        masks, a = self._operands(focal)
+        return self._sums(masks & a != 0)
 
     def commonality(self, focal: Focal | list[Focal] | NDArray) -> float | NDArray[np.float64]:
         """q(A): the mass of the focal sets containing A; a list or array of sets gives an array (see :meth:`belief`).
@@ -356,9 +367,8 @@ class MassFunction:
         >>> MassFunction(Frame(["a", "b", "c"]), {"a": 0.5, "a|b": 0.25, "c": 0.25}).commonality(["a", ""]).tolist()
         [0.75, 1.0]
         """
-        sets = self._many(focal)
-        a = self.frame.mask(focal) if sets is None else sets[:, None]
-        return self._sums(self._stack.masks & a == a)
+        masks, a = self._operands(focal)
+        return self._sums(masks & a == a)
 
     def pignistic(self) -> dict[str, float]:
         """The pignistic probabilities BetP(ω) = sum over A ∋ ω of m(A) / |A| / (1 - m(∅)).
@@ -451,10 +461,15 @@ class MassFunction:
 
 
 def _read_only(masks: NDArray[np.int64], masses: NDArray[np.float64]) -> Stack:
-    """A stack of read-only views of the arrays (a mass function's arrays never change)."""
-    masks, masses = masks.view(), masses.view()
-    masks.flags.writeable = False
-    masses.flags.writeable = False
+    """A stack of read-only arrays (a mass function's arrays never change).
+
+    ``masses`` must be the caller's own new array or view: it is made read-only in place.
+    ``masks`` is viewed read-only, unless it already is read-only (shared as it is).
+    """
+    if masks.flags.writeable:
+        masks = masks.view()
+        masks.setflags(write=False)
+    masses.setflags(write=False)
     return Stack(masks, masses)
 
 

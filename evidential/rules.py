@@ -243,14 +243,16 @@ def _normalize(sources: Sequence[Stack], n: int) -> Stack:
         return c
     m = c.masses
     z = m[1:].sum(axis=0)
-    if dense and z.min() < NEAR_TOTAL_CONFLICT:  # Möbius round-off matters: redo these exactly
+    low = z.min()
+    if dense and low < NEAR_TOTAL_CONFLICT:  # Möbius round-off matters: redo these exactly
         rows = np.flatnonzero(z < NEAR_TOTAL_CONFLICT)
         exact = _fold([Stack(s.masks, s.masses[:, rows]) for s in sources], n, np.bitwise_and)
         m[:, rows] = to_dense(exact, n)
         z[rows] = m[1:, rows].sum(axis=0)
-    if z.min() < SCALE_FLOOR:  # products may have underflowed: fold again with exponents kept apart
+        low = z.min()
+    if low < SCALE_FLOOR:  # products may have underflowed: fold again with exponents kept apart
         return dempster_scaled(list(sources), n)
-    if not z.min() > 0:
+    if not low > 0:
         row = int(np.argmin(z))
         where = f" (batch row {row})" if z.size > 1 else ""
         raise TotalConflictError(
@@ -259,7 +261,7 @@ def _normalize(sources: Sequence[Stack], n: int) -> Stack:
         )
     if dense:
         m[0] = 0.0
-        m /= z
+        m[1:] /= z
         return c
     return Stack(c.masks[1:], m[1:] / z)
 

@@ -9,6 +9,7 @@ stack with ``masks = arange(2**n)`` and ``masses = batch.T``.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -181,7 +182,7 @@ def dempster_pair(a: Stack, b: Stack, n: int) -> Stack | None:
         table = np.bincount(keys, weights, minlength=1 << n)
         conflict = table[0]
         table[0] = 0.0
-        (masks,) = table.nonzero()
+        masks = np.flatnonzero(table != 0)  # a float array's own nonzero() is five times slower
         masses = table[masks]
     else:
         c = aggregate(keys, weights[:, None], n)
@@ -196,16 +197,77 @@ def dempster_pair(a: Stack, b: Stack, n: int) -> Stack | None:
     return Stack(masks, masses[:, None])
 
 
-def dempster_fold(sources: list[Stack], n: int, budget: float = math.inf) -> Stack | None:
+PYTHON_MAX_BITS = 3
+"""Up to this many elements, and :data:`PYTHON_MAX_SETS` focal sets a source, :func:`dempster_fold`
+runs in plain Python."""
+
+PYTHON_MAX_SETS = 4
+"""At most 4 x 7 pairs a step: beyond about 40, numpy's few calls cost less than Python's loop."""
+
+
+def dempster_python(sources: list[Stack], n: int) -> Stack | None:
+    """:func:`dempster_pair` folded over two or more sources in plain Python, for frames of at
+    most :data:`PYTHON_MAX_BITS` elements, where one numpy call costs more than the whole sum.
+
+    The same floating-point operations in the same order, so the same bits: products summed
+    in pair order from 0 into a 2**n table, ∅ and zero sums dropped, the (at most 7, so
+    summed one by one, as numpy does below 8) non-empty masses summed in increasing order,
+    divided only where there is conflict. None where a step's non-conflicting mass is below
+    :data:`SCALE_FLOOR`.
+
+    Examples
+    --------
+    >>> a = Stack(np.array([1, 3]), np.array([[0.5], [0.5]]))
+    >>> b = Stack(np.array([2, 3]), np.array([[0.5], [0.5]]))
+    >>> s = dempster_python([a, b], 2)
+    >>> s.masks.tolist(), s.masses[:, 0].tolist()
+    ([1, 2, 3], [0.3333333333333333, 0.3333333333333333, 0.3333333333333333])
+    """
+    size = 1 << n
+    masks, masses = sources[0].masks.tolist(), sources[0].masses.ravel().tolist()
+    for s in sources[1:]:
+        ys, ws = s.masks.tolist(), s.masses.ravel().tolist()
+        table = [0.0] * size
+        for x, wx in zip(masks, masses):
+            for y, wy in zip(ys, ws):
+                table[x & y] += wx * wy
+        masks = [k for k in range(1, size) if table[k]]
+        masses = [table[k] for k in masks]
+        if table[0] > 0:
+            z = 0.0
+            for v in masses:
+                z += v
+            if not z >= SCALE_FLOOR:
+                return None
+            masses = [v / z for v in masses]
+    return Stack(_small_masks(tuple(masks)), np.array(masses)[:, None])
+
+
+@functools.cache
+def _small_masks(masks: tuple[int, ...]) -> NDArray[np.int64]:
+    """The read-only array of ``masks``, shared (a frame of at most 3 elements has 128 lists of focal sets)."""
+    array = np.array(masks, dtype=np.int64)
+    array.setflags(write=False)
+    return array
+
+
+def dempster_fold(sources: list[Stack], n: int, margin: float = math.inf) -> Stack | None:
     """Dempster's rule of two or more single mass functions folded pair by pair (each step
     normalised, ∅ dropped): ``combine(combine(a, b), c)`` without the objects.
 
-    None, before a step, where the rest of the fold would cost more than ``budget``
-    (element operations, as :func:`mobius_cost_wins` counts them) at the current
-    number of focal sets: the steps done are spent either way. Raises
+    None, before a step, where the rest of the fold would cost more than ``margin`` times
+    the Möbius strategy (:func:`mobius_cost`; element operations, as :func:`mobius_cost_wins`
+    counts them) at the current number of focal sets: the steps done are spent either
+    way. On tiny frames the fold runs in plain Python (:func:`dempster_python`). Raises
     :class:`TotalConflictError` where a step is in total conflict or underflows
     (see :func:`dempster_pair`).
     """
+    if (1 << n) <= PYTHON_MAX_SETS or (n <= PYTHON_MAX_BITS and all(s.masks.size <= PYTHON_MAX_SETS for s in sources)):
+        result = dempster_python(sources, n)
+        if result is None:
+            raise TotalConflictError("total conflict or underflow in the pairwise fold")
+        return result
+    budget = margin * mobius_cost(sources, n)
     result, steps = sources[0], len(sources) - 1
     pairs = sum(s.masks.size for s in sources[1:])  # focal sets still to meet
     for s in sources[1:]:
@@ -274,27 +336,38 @@ def transform_product(sources: list[Stack], n: int, superset: bool) -> NDArray[n
     """Dense m of the conjunctive (superset) or disjunctive (subset) combination via
     the product of commonalities (or implicabilities); round-off below the error
     bound is set to 0."""
-    product = sweep(to_dense(sources[0], n), superset, inverse=False)
+    product = _zeta(sources[0], n, superset)
     for s in sources[1:]:
-        product *= sweep(to_dense(s, n), superset, inverse=False)
+        product *= _zeta(s, n, superset)
     m = sweep(product, superset, inverse=True)
-    small = m <= 64 * (n + len(sources)) * np.finfo(np.float64).eps
-    if small.any():  # the boolean assignment costs more than the test
-        m[small] = 0.0
+    tolerance = 64 * (n + len(sources)) * np.finfo(np.float64).eps
+    if m.min() <= tolerance:  # one reduction where nothing is that small (the usual case)
+        m[m <= tolerance] = 0.0
     return m
+
+
+def _zeta(s: Stack, n: int, superset: bool) -> NDArray[np.float64]:
+    """The zeta transform of a stack as a new dense (2**n, N) array (the stack left as it is)."""
+    if s.masks.size == 1 << n:  # all the sets: the transform's first step reads them, no copy first
+        return sweep(s.masses, superset, inverse=False, out=np.empty(s.masses.shape))
+    return sweep(to_dense(s, n), superset, inverse=False)
 
 
 def membership(masks: NDArray, n: int) -> NDArray[np.float64]:
     """(K, n) matrix: entry (k, i) is 1 where element ``i`` is in the focal set ``masks[k]``.
 
-    Works for int64 masks and for the Python ints (object arrays) of wide frames.
+    Works for int64 masks (their bytes unpacked to bits, one numpy call) and for the
+    Python ints (object arrays) of wide frames.
 
     Examples
     --------
     >>> membership(np.array([1, 6]), 3).tolist()
     [[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]]
     """
-    return (masks[:, None] >> np.arange(n) & 1).astype(np.float64)
+    if masks.dtype == object:
+        return (masks[:, None] >> np.arange(n) & 1).astype(np.float64)
+    octets = np.ascontiguousarray(masks, dtype="<i8").view(np.uint8).reshape(-1, 8)
+    return np.unpackbits(octets, axis=1, count=n, bitorder="little").astype(np.float64)
 
 
 def element_masses(s: Stack, n: int, split: bool) -> NDArray[np.float64]:
@@ -315,9 +388,9 @@ def element_masses(s: Stack, n: int, split: bool) -> NDArray[np.float64]:
     >>> element_masses(Stack(np.array([0, 1, 3]), np.array([[0.5], [0.25], [0.25]])), 2, split=True).tolist()
     [[0.75], [0.25]]
     """
-    member = membership(s.masks, n)
-    size = member.sum(axis=1)
-    w = s.masses[size > 0]
+    empty = int(s.masks.size > 0 and s.masks[0] == 0)  # increasing: ∅ can only come first
+    member = membership(s.masks[empty:], n)
+    w = s.masses[empty:]
     z = w.sum(axis=0)
     if not z.min() > 0:
         where = f" (batch row {int(np.argmin(z))})" if z.size > 1 else ""
@@ -326,8 +399,8 @@ def element_masses(s: Stack, n: int, split: bool) -> NDArray[np.float64]:
         )
     w = w / z
     if split:
-        w /= size[size > 0, None]
-    return np.einsum("ki,kj->ij", member[size > 0], w)  # no BLAS threads
+        w /= member.sum(axis=1)[:, None]
+    return np.einsum("ki,kj->ij", member, w)  # no BLAS threads
 
 
 def _frexp(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:

@@ -13,16 +13,38 @@ from numpy.typing import ArrayLike, NDArray
 from evidential.errors import MassError, UndefinedTransformError
 
 
-def sweep(x: NDArray[np.float64], superset: bool, inverse: bool) -> NDArray[np.float64]:
+def sweep(
+    x: NDArray[np.float64], superset: bool, inverse: bool, out: NDArray[np.float64] | None = None
+) -> NDArray[np.float64]:
     """Zeta (sum) or Möbius (difference) transform along axis 0, in place.
 
     ``x`` has shape ``(2**n, ...)`` and is C-contiguous. The subset zeta gives
     ``f(A) = sum_{B <= A} x(B)``, the superset zeta ``f(A) = sum_{B >= A} x(B)``;
-    ``inverse`` undoes them.
+    ``inverse`` undoes them. With ``out`` (a C-contiguous array of ``x``'s shape),
+    ``x`` is left as it is and the transform written to ``out``: the first step
+    reads ``x`` and writes ``out``, the same sums as a copy swept in place, one
+    pass fewer.
+
+    Examples
+    --------
+    >>> x = np.array([0.0, 0.5, 0.2, 0.3])
+    >>> sweep(x, superset=True, inverse=False, out=np.empty(4)).tolist(), x.tolist()
+    ([1.0, 0.8, 0.5, 0.3], [0.0, 0.5, 0.2, 0.3])
     """
     size = x.shape[0]
     rest = x.shape[1:]
-    for i in range(size.bit_length() - 1):
+    start = 0
+    if out is not None:
+        pairs, into = x.reshape(size >> 1, 2, *rest), out.reshape(size >> 1, 2, *rest)
+        step = np.subtract if inverse else np.add
+        if superset:  # f(A) = x(A) + x(A + bit) for A without the bit, the others copied
+            step(pairs[:, 0], pairs[:, 1], out=into[:, 0])
+            into[:, 1] = pairs[:, 1]
+        else:
+            into[:, 0] = pairs[:, 0]
+            step(pairs[:, 1], pairs[:, 0], out=into[:, 1])
+        x, start = out, 1
+    for i in range(start, size.bit_length() - 1):
         pairs = x.reshape(size >> (i + 1), 2, 1 << i, *rest)  # index = hi 2^(i+1) + bit 2^i + lo
         without, with_ = pairs[:, 0], pairs[:, 1]
         target, source = (without, with_) if superset else (with_, without)
