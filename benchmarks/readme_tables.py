@@ -1,7 +1,8 @@
 """Print the README's result tables from a rerun, so that the README matches what the code gives.
 
 Reruns every packaged scenario (``configs/scenarios/``, ``evmap run``) and the rule
-comparison (``evmap compare --worlds 200 --seed 1``), and prints the two Markdown
+comparison (``evmap compare --worlds 200 --seed 1``), each under the paper's config and
+the default one (``--configs``), and prints the two Markdown
 tables of the README's "Other scenarios" and "Rules on 200 generated worlds"
 sections. The comparison's numbers do not depend on the scheduler (rows are
 gathered in world order), only its timings do.
@@ -16,7 +17,7 @@ from importlib.resources import files
 
 from evmap.maps.app.compare import DEFAULT_RULES, Comparison, run_comparison
 from evmap.maps.app.run import report, run_scenario
-from evmap.sources.config import load_config
+from evmap.sources.config import config_path, load_config
 from evmap.sources.sim.scenario import load_scenario
 
 SCENARIOS = {
@@ -41,36 +42,45 @@ RULE_COLUMNS = {
 """summary.csv column -> the README's heading and format."""
 
 
-def scenario_table() -> str:
-    """The "Other scenarios" table: one row per packaged scenario, run with the packaged config."""
-    config = load_config()
+def scenario_table(configs: list[str]) -> str:
+    """The "Other scenarios" table: one row per packaged scenario and config (``paper``, ``default``, a path)."""
     out = [
         (
-            "| scenario | poses | phantoms eliminated | real eliminated | lines before → after | corners "
-            "| RCDs actual / simulated / matched | unidentified |"
+            "| scenario | config | poses | phantoms eliminated | real eliminated | lines before → after | corners "
+            "| RCDs actual / simulated / matched | unidentified | s |"
         ),
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     for stem, label in SCENARIOS.items():
-        r = report(run_scenario(load_scenario(str(files("evmap.configs") / "scenarios" / f"{stem}.yaml")), config))
-        real = r["lsl_segments"] - r["noise_segments"]
-        out.append(
-            f"| {label} | {r['poses']} | {r['noise_eliminated']}/{r['noise_segments']} | "
-            f"{r['real_eliminated']}/{real} | {r['lines_before_merge']} → {r['lines_after_merge']} | {r['corners']} | "
-            f"{r['rcds_actual']} / {r['rcds_simulated']} / {r['rcds_matched']} | {r['unidentified']} |"
-        )
+        scenario = load_scenario(str(files("evmap.configs") / "scenarios" / f"{stem}.yaml"))
+        for name in configs:
+            r = report(run_scenario(scenario, load_config(name)))
+            real = r["lsl_segments"] - r["noise_segments"]
+            out.append(
+                f"| {label} | {name} | {r['poses']} | {r['noise_eliminated']}/{r['noise_segments']} | "
+                f"{r['real_eliminated']}/{real} | {r['lines_before_merge']} → {r['lines_after_merge']} | "
+                f"{r['corners']} | {r['rcds_actual']} / {r['rcds_simulated']} / {r['rcds_matched']} | "
+                f"{r['unidentified']} | {r['seconds']['total']:.2f} |"
+            )
     return "\n".join(out)
 
 
-def rule_table(comparison: Comparison) -> str:
-    """The "Rules on generated worlds" table: the means of summary.csv in the README's layout."""
+def rule_table(comparisons: dict[str, Comparison]) -> str:
+    """The "Rules on generated worlds" table: the means of summary.csv (with their 95 % intervals for the
+    noise recall and the real loss), one row per config and rule."""
     out = [
-        "| rule | " + " | ".join(h for h, _ in RULE_COLUMNS.values()) + " |",
-        "| --- | " + " | ".join("---:" for _ in RULE_COLUMNS) + " |",
+        "| config | rule | " + " | ".join(h for h, _ in RULE_COLUMNS.values()) + " |",
+        "| --- | --- | " + " | ".join("---:" for _ in RULE_COLUMNS) + " |",
     ]
-    for row in comparison.summary:
-        cells = ["" if row[c] is None else fmt.format(row[c]) for c, (_, fmt) in RULE_COLUMNS.items()]
-        out.append(f"| {row['rule']} | " + " | ".join(cells) + " |")
+    for name, comparison in comparisons.items():
+        for row in comparison.summary:
+            cells = []
+            for c, (_, fmt) in RULE_COLUMNS.items():
+                cell = "" if row[c] is None else fmt.format(row[c])
+                if c in ("noise_recall", "real_loss") and row.get(f"{c}_lo") is not None:
+                    cell += f" ({fmt.format(row[f'{c}_lo'])}–{fmt.format(row[f'{c}_hi'])})"
+                cells.append(cell)
+            out.append(f"| {name} | {row['rule']} | " + " | ".join(cells) + " |")
     return "\n".join(out)
 
 
@@ -79,14 +89,22 @@ def main() -> None:
     parser.add_argument("--worlds", type=int, default=200)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--scheduler", help="as evmap compare's (default: a local cluster)")
+    parser.add_argument("--configs", default="paper,default", help="comma-separated configs (default: %(default)s)")
     args = parser.parse_args()
+    configs = args.configs.split(",")
     print("### Other scenarios\n")
-    print(scenario_table())
-    comparison = run_comparison(DEFAULT_RULES, args.worlds, args.seed, scheduler=args.scheduler, progress=True)
+    print(scenario_table(configs))
+    comparisons = {
+        name: run_comparison(
+            DEFAULT_RULES, args.worlds, args.seed, scheduler=args.scheduler, progress=True,
+            config_path=config_path(name),
+        )
+        for name in configs
+    }  # fmt: skip
     print(
         f"\n### Rules on {args.worlds} generated worlds (`evmap compare ... --worlds {args.worlds} --seed {args.seed}`)\n"
     )
-    print(rule_table(comparison))
+    print(rule_table(comparisons))
 
 
 if __name__ == "__main__":
