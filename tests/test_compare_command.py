@@ -17,6 +17,7 @@ from evmap.maps.app.cli import main
 from evmap.maps.app.compare import COLUMNS, METRICS, SUMMARY_COLUMNS, iter_results, run_comparison, write_comparison
 from evmap.maps.app.compare_plots import PLOT_FILES
 from evmap.maps.app.staging import MARKER
+from evmap.sources.config import config_path
 
 ARGS = ["--rules", "dempster,yager,dubois_prade", "--worlds", "3", "--seed", "2", "--quiet"]
 
@@ -109,7 +110,10 @@ def test_ctrl_c_stops_the_cluster_cleanly_with_one_line_and_exit_130(tmp_path):
 
 
 def test_write_comparison_writes_a_gathered_comparison_like_the_command(tmp_path, written):
-    comparison = run_comparison(["dempster", "yager", "dubois_prade"], 3, 2, scheduler="synchronous", progress=False)
+    comparison = run_comparison(
+        ["dempster", "yager", "dubois_prade"], 3, 2, scheduler="synchronous", progress=False,
+        config_path=config_path("default"),  # the command's default config
+    )  # fmt: skip
     write_comparison(comparison, tmp_path)
     for name in ("summary.csv", "worlds.csv"):
         mine, theirs = (list(csv.DictReader((d / name).open())) for d in (tmp_path, written))

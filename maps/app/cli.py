@@ -112,7 +112,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = commands.add_parser("run", help="run the paper's experiment on a scenario and write its artefacts")
     run.add_argument("scenario", nargs="?", help="scenario file (default: the embedded corridor of the paper)")
-    run.add_argument("--config", help="config file, or a packaged config by name: paper, default (default: paper)")
+    run.add_argument(
+        "--config",
+        default="default",
+        help="config file, or a packaged config by name: default (the default: the evidence beyond the paper), paper (the paper's method)",
+    )
     run.add_argument("--rule", help="combination rule, overriding the config's (a name in evidential.RULES)")
     run.add_argument("--out", default="out", help="directory for the artefacts (default: out)")
     run.add_argument("--force", action="store_true", help="replace the directory if it is not empty")
@@ -125,7 +129,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     log = commands.add_parser("log", help="map a robot log (CARMEN, g2o, ROS bag) and write the run's artefacts")
     log.add_argument("file", help="the log: *.log, *.clf (gzipped or not), *.g2o, *.bag or a ROS 2 bag directory")
-    log.add_argument("--config", help="config file, or a packaged config by name: paper, default (default: paper)")
+    log.add_argument(
+        "--config",
+        default="default",
+        help="config file, or a packaged config by name: default (the default: the evidence beyond the paper), paper (the paper's method)",
+    )
     log.add_argument("--rule", help="combination rule, overriding the config's (a name in evidential.RULES)")
     log.add_argument("--out", default="out", help="directory for the artefacts (default: out)")
     log.add_argument("--every", type=int, default=1, help="use every N-th laser scan (default: 1, all)")

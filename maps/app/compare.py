@@ -57,6 +57,7 @@ from evmap.maps.app.compare_tables import (
     write_summary,
 )
 from evmap.maps.app.staging import COMPARE_LAYOUT, MIN_FREE_BYTES, claim_output
+from evmap.sources.config import config_path
 
 __all__ = [
     "BELIEF_BINS",
@@ -114,9 +115,10 @@ def compare_command(args: argparse.Namespace) -> int:
     ValueError (``evmap: error: ...``, exit 2) on bad input or output, before the work.
     """
     rules = check_rules(args.rules)
-    if args.config is not None and not Path(args.config).is_file():
-        raise ValueError(f"--config: no such file {args.config}")
-    check_run(args.worlds, args.seed, args.workers, args.config)
+    config = config_path(args.config)
+    if not config.is_file():
+        raise ValueError(f"--config: no such file {config}")
+    check_run(args.worlds, args.seed, args.workers, config)
     space = MIN_FREE_BYTES + BYTES_PER_WORLD * args.worlds
     try:
         with claim_output(args.out, force=args.force, layout=COMPARE_LAYOUT, free_bytes=space) as staging:
@@ -126,7 +128,7 @@ def compare_command(args: argparse.Namespace) -> int:
                     rules,
                     args.worlds,
                     args.seed,
-                    config_path=args.config,
+                    config_path=config,
                     scheduler=args.scheduler,
                     workers=args.workers,
                     progress=not args.quiet,

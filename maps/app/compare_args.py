@@ -42,7 +42,11 @@ def add_compare_parser(subparsers: argparse._SubParsersAction) -> argparse.Argum
     compare.add_argument("--seed", type=int, default=0, help="seed of the experiment (default: %(default)s)")
     compare.add_argument("--out", required=True, help="output directory: must not exist or be empty (see --force)")
     compare.add_argument("--force", action="store_true", help="replace --out if evmap wrote it")
-    compare.add_argument("--config", help="config file, or a packaged config by name: paper, default (default: paper)")
+    compare.add_argument(
+        "--config",
+        default="default",
+        help="config file, or a packaged config by name: default (the default: the evidence beyond the paper), paper (the paper's method)",
+    )
     compare.add_argument(
         "--scheduler",
         help="address of a Dask scheduler, or synchronous|threads|processes (default: a local cluster, "

@@ -97,6 +97,8 @@ def compare_world(
     >>> r.world, [row["rule"] for row in r.rows], r.beliefs["bayes"].shape
     ('world-0000', ['dempster', 'bayes'], (2, 20))
     """
+    if any(rule not in RULES for rule in rules):
+        load_plugins()  # a worker process of its own: the rules of installed packages, registered on first use
     config = _config(config_path)
     name = f"world-{index:04d}"
     scenario = generate_world(world_seed(seed, index), params, name=name)
