@@ -275,6 +275,12 @@ class _MapReader:
         for d, mass in zip(edges, self.masses(codec, edges, "edges", parts.rule), strict=True):
             d["mass"] = mass
         parts.nodes, parts.edges = nodes, edges
+        if parts.segments is not None and len(parts.segments):
+            lines = {d["id"] for d in edges} | {""}
+            bad = [i for i, line in enumerate(parts.segments.line.tolist()) if line not in lines]
+            if bad:
+                problem = f"names line {parts.segments.line[bad[0]]!r}, which is not a line of the map"
+                raise self.fail(f"graph.segments.line[{bad[0]}]", problem)
         return parts
 
     def graph(self, attrs: dict[str, Any]) -> MapParts:

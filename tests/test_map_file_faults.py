@@ -50,6 +50,7 @@ def rewrite(saved, tmp_path, change) -> os.PathLike:
         (lambda d: d["graph"]["segments"]["mass"][1].update({"": 0.1, "noise": 0.9}), r"segments.mass\[1\]"),
         (lambda d: d["graph"]["segments"]["p"].__setitem__(2, [None, 0.0]), r"segments"),
         (lambda d: d["graph"]["segments"]["pose"].__setitem__(0, -1), r"segments.pose\[0\]"),
+        (lambda d: d["graph"]["segments"]["line"].__setitem__(0, "L999"), r"segments.line\[0\]: names line 'L999'"),
     ],
 )
 def test_garbage_is_refused_naming_the_place(saved, tmp_path, change, match):
