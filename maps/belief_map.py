@@ -29,7 +29,9 @@ planner's queries (:mod:`evmap.maps.planner`), the occupancy grid
 from __future__ import annotations
 
 import bisect
+import copy
 from collections.abc import Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -109,6 +111,7 @@ class BeliefMap:
         self._open_space: shapely.MultiPolygon | None = shapely.MultiPolygon()  # their union; None: not yet made
         self._indexes: dict[str, SpatialIndex] | None = None  # points, lines, obstacles; made on first use
         self._config: Config | None = None
+        self._undo: list[tuple[Any, ...]] | None = None  # inside a transaction: how to undo each change
         self._version = 0
         self._journal: list[tuple[int, str]] = []  # (version, id) of every object changed, oldest first
         self._journal_floor = 0  # the journal tells the changes since this version on
@@ -303,6 +306,7 @@ class BeliefMap:
             **attrs,
         )
         self._index_point(id)
+        self._record("added point", id)
         self._changed(id)
 
     def add_line(
@@ -328,12 +332,15 @@ class BeliefMap:
         self._lines[id] = (u, v)
         if self._indexes is not None:
             self._indexes["lines"].insert(id, self._line_bounds(id))
+        self._record("added line", id)
         self._changed(id)
 
     def remove_line(self, id: str) -> None:
         """Remove the line ``id`` (its end points stay)."""
         if id not in self._lines:
             raise KeyError(f"{id!r} is not a line of the map")
+        u, v = self._lines[id]
+        self._record("removed line", id, u, v, self._graph.adj[u][v])
         self._graph.remove_edge(*self._lines.pop(id))
         if self._indexes is not None:
             self._indexes["lines"].remove(id)
@@ -346,6 +353,7 @@ class BeliefMap:
         ending = sorted(d["id"] for _, _, d in self._graph.edges(id, data=True))
         if ending:
             raise ValueError(f"point {id!r} still ends lines {ending}; remove them first")
+        self._record("removed point", id, self._graph.nodes[id])
         self._graph.remove_node(id)
         if self._indexes is not None:
             self._indexes["points"].remove(id)
@@ -372,6 +380,7 @@ class BeliefMap:
             checked["kind"] = _kind(attrs["kind"], id)
         if "history" in attrs:
             checked["history"] = _history(attrs["history"], id)
+        self._record("set", id, {k: data.get(k, _ABSENT) for k in checked})
         data.update(checked)
         if "xy" in checked or "kind" in checked:
             self._index_point(id)
@@ -398,6 +407,7 @@ class BeliefMap:
         mass = self._check_mass(mass, id)
         map_json.check_json(record, f"{id}: record")
         combined = combine(data["mass"], mass, rule=self.rule)
+        self._record("folded", id, data["mass"], len(data["history"]))
         data["history"].append(
             {**record, "rule": self.rule, "conflict": conflict(data["mass"], mass), "mass": mass.to_dict()}
         )
@@ -422,10 +432,102 @@ class BeliefMap:
         poses.append(int(pose_index))
         self._changed()
 
+    # ----------------------------------------------------------------- all or nothing
+
+    @contextmanager
+    def transaction(self) -> Iterator[None]:
+        """Changes that happen all or not at all: on any exception inside the block the map is put back as it
+        was (its objects, their attributes and histories, segments, open space, ids and poses), then it is raised.
+
+        :meth:`update` runs in one. Objects put back may come after the others in iteration order.
+
+        >>> from evidential import MassFunction
+        >>> bm = BeliefMap(["real", "noise"])
+        >>> m = MassFunction(bm.frame, {"real": 1.0})
+        >>> bm.add_point("A", (0, 0), "corner", m)
+        >>> try:
+        ...     with bm.transaction():
+        ...         bm.add_point("B", (1, 0), "corner", m)
+        ...         bm.remove_point("A")
+        ...         raise RuntimeError("half-way")
+        ... except RuntimeError:
+        ...     pass
+        >>> sorted(bm.graph.nodes)
+        ['A']
+        """
+        if self._undo is not None:  # already in one: the outer one decides
+            yield
+            return
+        g = self._graph.graph
+        saved = (
+            self.segments.checkpoint(),
+            len(self._spaces),
+            self._open_space,
+            g.get("open_space"),
+            copy.deepcopy(g.get("next_id")),
+            list(g.get("poses", [])) if "poses" in g else None,
+        )
+        self._undo = []
+        try:
+            yield
+        except BaseException:
+            self._roll_back(saved)
+            raise
+        finally:
+            self._undo = None
+
+    def _roll_back(self, saved: tuple[Any, ...]) -> None:
+        """Undo the changes of the transaction, newest first, and restore what was saved at its start."""
+        undo, self._undo = self._undo or [], None
+        g = self._graph
+        for change, id, *args in reversed(undo):
+            if change == "added line":
+                g.remove_edge(*self._lines.pop(id))
+            elif change == "added point":
+                g.remove_node(id)
+            elif change == "removed line":
+                u, v, data = args
+                g.add_edge(u, v)
+                g.adj[u][v].update(data)
+                self._lines[id] = (u, v)
+            elif change == "removed point":
+                g.add_node(id)
+                g.nodes[id].update(args[0])
+            elif change == "set":
+                data = self._data(id)
+                for key, value in args[0].items():
+                    if value is _ABSENT:
+                        data.pop(key, None)
+                    else:
+                        data[key] = value
+            elif change == "folded":
+                data = self._data(id)
+                data["mass"] = args[0]
+                del data["history"][args[1] :]
+        store, spaces, union, geojson, next_id, poses = saved
+        self.segments.restore(store)
+        del self._spaces[spaces:]
+        self._space_index = None
+        self._open_space = union
+        g.graph["open_space"] = geojson
+        if next_id is not None:
+            g.graph["next_id"] = next_id
+        if poses is not None:
+            g.graph["poses"] = poses
+        self._indexes = None  # made again from the map as it is now
+        self._version += 1
+        self._journal.clear()
+        self._journal_floor = self._version  # what was derived from the map is made anew
+
+    def _record(self, *change: Any) -> None:
+        if self._undo is not None:
+            self._undo.append(change)
+
     # ----------------------------------------------------------------- delegates
 
     def update(self, observation: Observation) -> PoseOutcome:
-        """Fold in one pose's observation by the paper's pipeline (:func:`evmap.maps.pipeline.fold_observation`)."""
+        """Fold in one pose's observation by the paper's pipeline (:func:`evmap.maps.pipeline.fold_observation`),
+        all or nothing: if it fails half-way the map is as it was (:meth:`transaction`)."""
         return fold_observation(self, observation, self.config)
 
     def lines(self, min_belief: float = 0.5) -> list[Line]:
@@ -577,6 +679,10 @@ class BeliefMap:
             half = len(self._journal) // 2
             self._journal_floor = self._journal[half - 1][0]
             del self._journal[:half]
+
+
+_ABSENT = object()
+"""What an attribute that a transaction set had been: absent (undo deletes it)."""
 
 
 def new_map(config: Config) -> BeliefMap:

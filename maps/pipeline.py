@@ -36,7 +36,7 @@ from evmap.maps.noise import COMPUTED, judge
 from evmap.maps.observation import Observation
 from evmap.maps.rebuild import rebuild, refresh_points
 from evmap.maps.reinforcement import reinforce
-from evmap.maps.sensed import remember
+from evmap.maps.sensed import features_checkpoint, forget, remember
 from evmap.maps.simulated_sonar import check_sonar
 from evmap.maps.unidentified import add_unidentified
 from evmap.sources.config import Config
@@ -82,11 +82,22 @@ class PoseOutcome:
 
 
 def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOutcome:
-    """Fold one observation into the map by the paper's pipeline (see the module doc)."""
+    """Fold one observation into the map by the paper's pipeline (see the module doc), all or nothing."""
     check_observation(bm, obs, config)
+    features = features_checkpoint(bm)
+    with bm.transaction():  # all or nothing: a failure half-way leaves the map as it was
+        bm.add_pose(int(obs.pose_index))
+        remember(bm, obs)
+        try:
+            return _fold(bm, obs, config)
+        except BaseException:
+            forget(bm, obs.pose_index, features)  # what the map does not keep itself
+            raise
+
+
+def _fold(bm: BeliefMap, obs: Observation, config: Config) -> PoseOutcome:
+    """The stages of :func:`fold_observation`, after its checks."""
     store = bm.segments
-    bm.add_pose(int(obs.pose_index))
-    remember(bm, obs)
     pose = obs.pose
 
     # 1. open space of this pose, added to the map's

@@ -183,6 +183,18 @@ class SegmentStore:
                 self._index.remove(str(i))
         return row
 
+    def checkpoint(self) -> tuple[int, dict[str, NDArray[Any]], dict[str, NDArray[Any]]]:
+        """A copy of the store's rows, for :meth:`restore` (the map's all-or-nothing updates)."""
+        n = self._n
+        return n, {k: v[:n].copy() for k, v in self._data.items()}, {k: v[:n].copy() for k, v in self._features.items()}
+
+    def restore(self, checkpoint: tuple[int, dict[str, NDArray[Any]], dict[str, NDArray[Any]]]) -> None:
+        """Put the rows of a :meth:`checkpoint` back, as they were then."""
+        self._n, data, features = checkpoint
+        self._data = {k: v.copy() for k, v in data.items()}
+        self._features = {k: v.copy() for k, v in features.items()}
+        self._index = None
+
     def near(self, bounds: tuple[float, float, float, float]) -> NDArray[np.intp]:
         """Ids of the segments not absorbed whose bounding boxes meet ``bounds`` = (xmin, ymin, xmax, ymax), sorted.
 

@@ -30,6 +30,8 @@ __all__ = [
     "SENSED_FEATURES",
     "SENSED_KEY",
     "Sensed",
+    "features_checkpoint",
+    "forget",
     "keep_features",
     "kept_features",
     "remember",
@@ -88,6 +90,21 @@ def remember(bm: BeliefMap, obs: Observation) -> Sensed:
     kept = Sensed(int(obs.pose_index), np.array(obs.pose[:2]), bearing[order], rays[order, 1], obs.sonar)
     _memory(bm)[kept.pose_index] = kept
     return kept
+
+
+def features_checkpoint(bm: BeliefMap) -> dict[str, NDArray[np.str_]]:
+    """A copy of the features last computed for the map's segments, for :func:`forget`."""
+    return {name: column.copy() for name, column in _FEATURES.get(bm, {}).items()}
+
+
+def forget(bm: BeliefMap, pose_index: int, features: dict[str, NDArray[np.str_]]) -> None:
+    """Forget what a pose sensed and put back the segments' features of a :func:`features_checkpoint` (the
+    pose's update failed, and the map is put back as it was before it)."""
+    _memory(bm).pop(int(pose_index), None)
+    if features:
+        _FEATURES[bm] = features
+    else:
+        _FEATURES.pop(bm, None)
 
 
 def _memory(bm: BeliefMap) -> dict[int, Sensed]:

@@ -1,0 +1,56 @@
+"""A failed update leaves the map as it was: all or nothing."""
+
+import json
+
+import pytest
+
+from evmap import configs
+from evmap.maps import BeliefMap, new_map
+from evmap.maps.observation import observe
+from evmap.sources.config import load_config
+from evmap.sources.sim.scenario import load_scenario
+from evmap.sources.sim.world import World
+
+
+def content(bm: BeliefMap) -> str:
+    """The map's content, order aside (objects put back may come last)."""
+    data = bm.to_data()
+    data["nodes"] = sorted(data["nodes"], key=lambda d: d["id"])
+    data["edges"] = sorted(data["edges"], key=lambda d: d["id"])
+    return json.dumps(data, sort_keys=True)
+
+
+@pytest.mark.parametrize("config_name", ["paper", "default"])
+def test_a_failure_half_way_leaves_the_map_as_it_was(monkeypatch, tmp_path, config_name):
+    config = load_config(config_name)
+    world = World(load_scenario(configs.path("scenarios/patrol.yaml")))
+    first, second = observe(world, 0, config), observe(world, 1, config)
+    bm = new_map(config)
+    bm.update(first)
+    before = content(bm)
+    with monkeypatch.context() as m:  # fail after noise elimination and the rebuild have changed the map
+        m.setattr("evmap.maps.pipeline.reinforce", lambda *a: (_ for _ in ()).throw(RuntimeError("half-way")))
+        with pytest.raises(RuntimeError, match="half-way"):
+            bm.update(second)
+    assert content(bm) == before and bm.poses == (0,)
+    again = bm.update(second)  # and the same pose folds as if the failure never happened
+    direct = new_map(config)
+    direct.update(first)
+    direct.update(second)
+    assert content(bm) == content(direct) and again.pose_index == 1
+    bm.save(tmp_path / "map.json")
+    assert content(BeliefMap.load(tmp_path / "map.json")) == content(direct)
+
+
+def test_nested_transactions_leave_it_to_the_outer_one():
+    bm = BeliefMap(["real", "noise"])
+    m = bm.vacuous()
+    with pytest.raises(KeyError), bm.transaction():
+        bm.add_point("A", (0, 0), "corner", m)
+        with bm.transaction():
+            bm.add_point("B", (1, 0), "corner", m)
+        bm.add_line("L1", "A", "B", m)
+        bm.fold("L1", m, {"pose": 0})
+        bm.set_attrs("A", reinforced=True)
+        bm.remove_line("L9")  # no such line
+    assert len(bm) == 0 and not list(bm.near((-1, -1, 2, 2)))
