@@ -48,7 +48,7 @@ MAX_PHANTOMS_PER_RUN = 2_000
 """Most phantom lines over the whole run: poses times the phantom lines of all regions."""
 MAX_POLYGON_VERTICES = 1_000
 """Most vertices of one sunlight polygon."""
-MAX_POSES = 1_000
+MAX_POSES = 50
 """Most robot poses in a scenario."""
 MAX_COORDINATE = 1e7
 """Largest absolute x or y (m): any UTM easting or northing."""
