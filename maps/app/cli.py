@@ -27,7 +27,9 @@
     list the kinds of evidence sources and of sensors, built in or from plugins,
     with where each comes from, and the refused ones.
 
-``FILE`` defaults to the packaged ``configs/paper.yaml``. Normal output goes to
+``--config`` takes a file or a packaged config by name: ``default`` (what run, log
+and compare use when not told) or ``paper`` (the paper's method); ``config check``
+and ``config explain`` read ``paper`` when given no ``FILE``. Normal output goes to
 standard output. A mistake in the input (a bad file, an unknown source, a value
 a source cannot judge) prints ``evmap: error: <message>`` on standard error and
 exits with status 2, without a traceback.
