@@ -3,7 +3,7 @@
 Each command runs in a fresh process, several times; the medians are printed with
 what a run spends computing (``seconds.total`` of its report) and so what the
 rest (the interpreter, imports, files) costs. Targets: ``--help`` well under a
-second, the small run under 0.5 s.
+second, the small run under 0.5 s, an unreachable Dask scheduler refused within a few seconds.
 
     .venv/bin/python benchmarks/bench_cli.py [--runs 7]
 """
@@ -42,6 +42,14 @@ def main() -> None:
         seconds, out = wall([EVMAP, "run", "--out", str(tmp / "out"), "--force", "--figures", "none", "--json"])
         walls.append(seconds)
         computes.append(json.loads(out)["seconds"]["total"])
+    t = time.perf_counter()
+    unreachable = subprocess.run(
+        [EVMAP, "compare", "--worlds", "1", "--out", str(tmp / "cmp"), "--scheduler", "tcp://127.0.0.1:9"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    refused = time.perf_counter() - t
     shutil.rmtree(tmp)
     print(f"medians of {runs} runs, each in a fresh process")
     print(f"  python -c pass                      {statistics.median(bare):6.3f} s")
@@ -50,6 +58,7 @@ def main() -> None:
     print(
         f"  evmap run --figures none (corridor) {run:6.3f} s   computing {compute:.3f} s, the rest {run - compute:.3f} s"
     )
+    print(f"  evmap compare, unreachable scheduler: exit {unreachable.returncode} after {refused:.1f} s (one run)")
 
 
 if __name__ == "__main__":

@@ -74,11 +74,10 @@ def test_results_stream_in_world_order_and_lazily():
     assert first == ["world-0000", "world-0001", "world-0002"]
 
 
-def test_an_unreachable_scheduler_is_one_line_and_exit_2_within_seconds(capsys, tmp_path):
-    start = time.perf_counter()
+def test_an_unreachable_scheduler_is_one_line_and_exit_2(capsys, tmp_path):  # its time: benchmarks/bench_cli.py
     code = main(["compare", *ARGS, "--out", str(tmp_path / "out"), "--scheduler", "tcp://127.0.0.1:9"])
     err = capsys.readouterr().err
-    assert code == 2 and time.perf_counter() - start < 15
+    assert code == 2
     assert err.startswith("evmap: error: --scheduler tcp://127.0.0.1:9: cannot reach") and err.count("\n") == 1, err
     assert list(tmp_path.iterdir()) == []
 

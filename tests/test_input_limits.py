@@ -9,7 +9,6 @@ from __future__ import annotations
 import copy
 import os
 import threading
-import time
 from pathlib import Path
 
 import numpy as np
@@ -55,14 +54,12 @@ def corridor_data() -> dict:
     return yaml.safe_load(CORRIDOR.read_text())
 
 
-def test_alias_bomb_is_refused_in_well_under_a_second() -> None:
-    start = time.perf_counter()
+def test_alias_bomb_is_refused_before_it_is_expanded() -> None:  # its time: benchmarks/bench_loading.py
     with pytest.raises(
         InputError,
         match=rf"bomb.yaml: line \d+, column \d+: \d+ nodes once aliases are expanded, more than the limit of {MAX_NODES}",
     ):
         parse_scenario(BOMB, "bomb.yaml")
-    assert time.perf_counter() - start < 0.5
 
 
 def test_recursive_alias_is_refused() -> None:
