@@ -29,11 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.sparse import coo_array
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from evmap.maps.merging import check_segments
+from evmap.sources.clusters import close_pairs, component_labels
 from evmap.sources.params import CornerParams
 
 __all__ = ["Corners", "find_corners"]
@@ -103,13 +101,12 @@ def find_corners(
     ends = np.stack([p, q], axis=1).reshape(-1, 2)  # end e is line e // 2, end e % 2
     d = q - p
     u = d / np.hypot(d[:, 0], d[:, 1])[:, None]
-    e1, e2 = cKDTree(ends).query_pairs(params.distance + _EPS, output_type="ndarray").T
+    e1, e2 = close_pairs(ends, params.distance + _EPS)
     l1, l2 = e1 // 2, e2 // 2
     cos_max = np.cos(np.radians(params.min_angle_deg)) + _EPS
     link = (l1 != l2) & (np.abs(np.sum(u[l1] * u[l2], axis=1)) <= cos_max)
     e1, e2 = e1[link], e2[link]
-    graph = coo_array((np.ones(e1.size), (e1, e2)), shape=(2 * n, 2 * n))
-    _, comp = connected_components(graph, directed=False)
+    comp = component_labels(2 * n, e1, e2)
     member = np.flatnonzero(np.bincount(comp)[comp] > 1)
     # At most one end of a line per corner: keep the one nearest the centroid.
     groups, cm = np.unique(comp[member], return_inverse=True)

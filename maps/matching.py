@@ -7,18 +7,24 @@ actual RCD i with simulated RCD j is
 
 with the circular direction difference. A pair further apart than either gate
 (direction or range) can never match. The matching is a global assignment
-(``scipy.optimize.linear_sum_assignment``), not greedy first-come: it matches
-as many gated pairs as possible and, among those assignments, the one of least
-total cost. Gated-out pairs carry a finite cost larger than any sum of
-admissible costs, so one more admissible pair always wins, and they are
-dropped from the result. A pair exactly at a gate is admissible.
+(Kuhn–Munkres, with the potentials and shortest augmenting paths of Jonker and
+Volgenant, as ``scipy.optimize.linear_sum_assignment`` solves it), not greedy
+first-come: it matches as many gated pairs as possible and, among those
+assignments, the one of least total cost. Gated-out pairs carry a finite cost
+larger than any sum of admissible costs, so one more admissible pair always
+wins, and they are dropped from the result. A pair exactly at a gate is
+admissible.
+
+The assignment is written here, over numpy rows, rather than imported from
+scipy: importing ``scipy.optimize`` takes longer than a whole small run
+computes, and a scan holds tens of RCDs, so the O(n^3) method costs well under
+a millisecond (tests check it against scipy).
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import linear_sum_assignment
 
 from evmap.sources.params import MatchParams
 
@@ -73,7 +79,7 @@ def match_rcds(
     # Larger than the total cost of any assignment of admissible pairs.
     worst = (gate_a / scale_a) ** 2 + (params.range_gate / params.range_scale) ** 2
     cost[~admissible] = (min(cost.shape) + 1) * (worst + 1)
-    ai, si = linear_sum_assignment(cost)
+    ai, si = _assign(cost)
     ok = admissible[ai, si]
     return ai[ok].astype(np.intp), si[ok].astype(np.intp)
 
@@ -86,3 +92,41 @@ def _rcds(direction: ArrayLike, rng: ArrayLike, name: str) -> tuple[NDArray[np.f
     if not (np.isfinite(d).all() and np.isfinite(r).all()):
         raise ValueError(f"{name}_dir and {name}_range must be finite: found NaN or infinity")
     return d, r
+
+
+def _assign(cost: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """A least-cost assignment of min(A, S) pairs, by increasing row: rows ``r[k]`` to columns ``c[k]``."""
+    if cost.shape[0] > cost.shape[1]:
+        c, r = _assign(cost.T)
+        order = np.argsort(r)
+        return r[order], c[order]
+    n, m = cost.shape
+    u, v = np.zeros(n + 1), np.zeros(m + 1)
+    row_of = np.zeros(m + 1, dtype=np.intp)  # 1-based row holding each column; column 0 is the root
+    for i in range(1, n + 1):
+        row_of[0], j0 = i, 0
+        slack, way = np.full(m + 1, np.inf), np.zeros(m + 1, dtype=np.intp)
+        used = np.zeros(m + 1, dtype=bool)
+        while True:  # grow the tree of shortest alternating paths until it reaches a free column
+            used[j0] = True
+            i0 = row_of[j0]
+            reduced = cost[i0 - 1] - u[i0] - v[1:]
+            better = ~used[1:] & (reduced < slack[1:])
+            slack[1:][better] = reduced[better]
+            way[1:][better] = j0
+            j1 = int(np.argmin(np.where(used[1:], np.inf, slack[1:]))) + 1
+            delta = slack[j1]
+            u[row_of[used]] += delta
+            v[used] -= delta
+            slack[~used] -= delta
+            j0 = j1
+            if row_of[j0] == 0:
+                break
+        while j0:  # augment along the path
+            j1 = way[j0]
+            row_of[j0] = row_of[j1]
+            j0 = j1
+    cols = np.flatnonzero(row_of[1:])
+    rows = row_of[1:][cols] - 1
+    order = np.argsort(rows)
+    return rows[order], cols[order]

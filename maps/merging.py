@@ -48,9 +48,8 @@ from itertools import pairwise
 import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
-from scipy.sparse import coo_array
-from scipy.sparse.csgraph import connected_components
 
+from evmap.sources.clusters import component_labels
 from evmap.sources.params import MergeParams
 
 __all__ = ["Merged", "check_segments", "merge_segments", "related_pairs"]
@@ -236,8 +235,7 @@ def _group_lines(
     params: MergeParams,
 ) -> NDArray[np.intp]:
     """New line of each of the m current lines: checked components of the relation."""
-    graph = coo_array((np.ones(a.size), (a, b)), shape=(m, m))
-    _, comp = connected_components(graph, directed=False)
+    comp = component_labels(m, a, b)
     group = comp[labels]  # proposed group of each input
     _, _, fits = _fit(p, q, w, group, comp.max() + 1, params)
     bad = np.flatnonzero(~fits)

@@ -80,8 +80,9 @@ def load_plugins() -> tuple[Plugin, ...]:
     """
     if not _LOADED:
         _LOADED.append(True)
+        installed = entry_points()  # one scan of the installed distributions for every group
         for group in GROUPS:
-            for point in sorted(entry_points(group=group), key=lambda e: e.name):
+            for point in sorted(installed.select(group=group), key=lambda e: e.name):
                 PLUGINS.append(_load(group, point))
     return tuple(PLUGINS)
 

@@ -137,3 +137,22 @@ def test_matching_is_one_to_one_gated_and_optimal(actual, sim):
     assert _cost(a_dir, a_rng, s_dir, s_rng, ai, si) == pytest.approx(cost, abs=1e-9)
     again = match_rcds(a_dir, a_rng, s_dir, s_rng)
     assert np.array_equal(again[0], ai) and np.array_equal(again[1], si)
+
+
+@given(st.integers(0, 25), st.integers(0, 25), st.integers(0, 2**32 - 1))
+def test_matching_agrees_with_scipy_on_larger_scans(n, m, seed):
+    """Scans of up to 25 RCDs, crowded into the gates: as many pairs and the same least cost as scipy's solver."""
+    from scipy.optimize import linear_sum_assignment
+
+    rng = np.random.default_rng(seed)
+    a_dir, s_dir = rng.uniform(0, deg(40), n), rng.uniform(0, deg(40), m)
+    a_rng, s_rng = rng.uniform(1.0, 1.15, n), rng.uniform(1.0, 1.15, m)
+    ai, si = match_rcds(a_dir, a_rng, s_dir, s_rng)
+    dtheta = np.angle(np.exp(1j * (a_dir[:, None] - s_dir[None, :])))
+    drange = a_rng[:, None] - s_rng[None, :]
+    ok = (np.abs(dtheta) <= deg(12.5) + 1e-9) & (np.abs(drange) <= 0.1 + 1e-9)
+    cost = np.where(ok, (dtheta / deg(10)) ** 2 + (drange / 0.05) ** 2, 1e6)
+    r, c = linear_sum_assignment(cost)
+    r, c = r[ok[r, c]], c[ok[r, c]]
+    assert len(ai) == len(r)
+    assert _cost(a_dir, a_rng, s_dir, s_rng, ai, si) == pytest.approx(cost[r, c].sum(), abs=1e-9)

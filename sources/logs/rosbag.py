@@ -33,12 +33,10 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
-from rosbags.highlevel import AnyReader
-from rosbags.typesys import Stores, get_typestore
 
 from evmap.sources.logs.scan import (
     UNITS,
@@ -52,6 +50,9 @@ from evmap.sources.logs.scan import (
     check_pose,
     compose,
 )
+
+if TYPE_CHECKING:
+    from rosbags.highlevel import AnyReader
 
 __all__ = ["LASER_SCAN", "ODOMETRY", "RANGE", "TF", "RosbagOptions", "read_rosbag"]
 
@@ -160,6 +161,9 @@ def _choose(reader: AnyReader, path: Path, options: RosbagOptions) -> tuple[str,
 
 
 def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
+    from rosbags.highlevel import AnyReader  # only when a bag is read: rosbags takes a tenth of a second to import
+    from rosbags.typesys import Stores, get_typestore
+
     with AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
         scan_topic, range_topics, odom_topic = _choose(reader, path, options)
         wanted = {scan_topic, odom_topic, *range_topics}

@@ -36,10 +36,8 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.sparse import coo_array
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
+from evmap.sources.clusters import close_pairs, component_labels
 from evmap.sources.sim.scenario import Material, Scenario, Sunlight
 from evmap.sources.sim.surfaces import Surfaces
 
@@ -101,9 +99,7 @@ class World:
         points = np.array([xy for wall in walls for xy in wall.points], dtype=float).reshape(-1, 2)
         point_ids = np.array([f"{wall.id}:p{k}" for wall in walls for k in range(len(wall.points))], dtype=str)
         # one vertex per cluster of coinciding points, kept at its first point
-        pairs = cKDTree(points).query_pairs(VERTEX_TOLERANCE, output_type="ndarray")
-        graph = coo_array((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points),) * 2)
-        _, cluster = connected_components(graph, directed=False)
+        cluster = component_labels(len(points), *close_pairs(points, VERTEX_TOLERANCE))
         first_of_cluster = np.full(cluster.max(initial=-1) + 1, len(points))
         np.minimum.at(first_of_cluster, cluster, np.arange(len(points)))
         keep = np.sort(first_of_cluster)
