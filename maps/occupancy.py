@@ -19,6 +19,9 @@ the lowest y, column 0 the lowest x, ``origin`` is the lower-left corner of cell
 (0, 0); a value is ``round(100 * BetP(occupied))`` (pignistic probability), or
 -1 (unknown) where the ignorance ``m(free|occupied)`` is above
 ``ignorance_threshold`` (0.5 by default: ignorance outweighs all the rest).
+A planner that cannot treat -1 asks for unknown cells as blocked (100) or
+free (0) with ``OccupancyParams(unknown=...)``, as
+:func:`evmap.maps.planner.is_segment_clear` takes ``unknown="blocked"`` or ``"free"``.
 
 :func:`write_ros_map` writes the PGM + YAML pair exactly as ROS 1's
 ``map_saver`` does (trinary: 254 free, 0 occupied, 205 unknown; PGM top row =
@@ -30,7 +33,7 @@ from __future__ import annotations
 import os
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import shapely
@@ -72,6 +75,7 @@ OCCUPIED_MIN = 65
 """Grid values OCCUPIED_MIN..100 are written as occupied (0); all others as unknown (205)."""
 
 _FREE, _OCCUPIED, _EITHER = 1, 2, 3
+_UNKNOWN_VALUE = {"unknown": -1, "blocked": 100, "free": 0}
 
 
 class OccupancyParams(BaseModel):
@@ -87,6 +91,11 @@ class OccupancyParams(BaseModel):
         0.5, ge=0, le=1, description="a cell is unknown (-1) where m(free|occupied) is above this"
     )
     padding: float = Field(0.25, gt=0, le=100, description="margin of unknown cells around the map (m)")
+    unknown: Literal["unknown", "blocked", "free"] = Field(
+        "unknown",
+        description="what an unknown cell holds: -1 (unknown, as ROS expects), 100 (blocked, for a planner that "
+        "must stay where the map has seen) or 0 (free, for one that explores)",
+    )
     max_cells: int = Field(50_000_000, ge=1, description="largest grid (cells) built; guards against memory blow-up")
 
 
@@ -268,21 +277,26 @@ def evidential_grid(
 
 
 def occupancy_from_masses(masses: NDArray[np.float64], params: OccupancyParams | None = None) -> NDArray[np.int8]:
-    """The ROS ``int8`` grid of the mass arrays: ``round(100 * BetP(occupied))``, -1 unknown.
+    """The ROS ``int8`` grid of the mass arrays: ``round(100 * BetP(occupied))``, or the unknown value.
 
     ``BetP(occupied) = (m(occupied) + m(free|occupied) / 2) / (1 - m(∅))``; a cell is
     unknown where ``m(free|occupied)`` is above ``params.ignorance_threshold``, or
-    where all its mass is on the empty set.
+    where all its mass is on the empty set. An unknown cell holds -1 (ROS's
+    "unknown"; ``params.unknown="unknown"``, the default), 100 (``"blocked"``) or
+    0 (``"free"``).
 
     >>> import numpy as np
-    >>> occupancy_from_masses(np.array([[[0, 0.7, 0, 0.3], [0, 0, 0.8, 0.2], [0, 0, 0.3, 0.7]]])).tolist()
+    >>> masses = np.array([[[0, 0.7, 0, 0.3], [0, 0, 0.8, 0.2], [0, 0, 0.3, 0.7]]])
+    >>> occupancy_from_masses(masses).tolist()
     [[15, 90, -1]]
+    >>> occupancy_from_masses(masses, OccupancyParams(unknown="blocked")).tolist()
+    [[15, 90, 100]]
     """
     params = params or OccupancyParams()
     normal = 1.0 - masses[..., 0]
     known = (masses[..., _EITHER] <= params.ignorance_threshold) & (normal > 0)
     betp = (masses[..., _OCCUPIED] + 0.5 * masses[..., _EITHER]) / np.where(known, normal, 1.0)
-    return np.where(known, np.rint(100 * np.clip(betp, 0, 1)), -1).astype(np.int8)
+    return np.where(known, np.rint(100 * np.clip(betp, 0, 1)), _UNKNOWN_VALUE[params.unknown]).astype(np.int8)
 
 
 def write_atomic(path: str | Path, data: bytes) -> None:

@@ -203,3 +203,18 @@ def test_ros_map_pair_reads_back_as_map_server_would(l_room, tmp_path):
 def test_write_ros_map_refuses_a_bad_grid(tmp_path):
     with pytest.raises(ValueError, match="2D"):
         write_ros_map(np.zeros(3, dtype=np.int8), 0.05, (0, 0), tmp_path / "x")
+
+
+@pytest.mark.parametrize(("policy", "value", "pgm"), [("unknown", -1, 205), ("blocked", 100, 0), ("free", 0, 254)])
+def test_unknown_cells_hold_the_policys_value(tmp_path, policy, value, pgm):
+    """Unknown cells (-1 by default) are blocked or free on request; known cells keep their values."""
+    masses = np.array([[[0, 0.7, 0, 0.3], [0, 0, 0.8, 0.2], [0, 0, 0.3, 0.7], [1.0, 0, 0, 0]]])
+    grid = occupancy_from_masses(masses, OccupancyParams(unknown=policy))
+    assert grid.tolist() == [[15, 90, value, value]]
+    image, _ = write_ros_map(grid, 0.05, (0.0, 0.0), tmp_path / "map")
+    assert image.read_bytes()[-4:] == bytes([254, 0, pgm, pgm])
+
+
+def test_an_unknown_policy_outside_the_three_is_refused():
+    with pytest.raises(ValueError, match="unknown"):
+        OccupancyParams(unknown="maybe")
