@@ -17,7 +17,7 @@ from importlib.resources import files
 
 from evmap.maps.app.compare import DEFAULT_RULES, Comparison, run_comparison
 from evmap.maps.app.run import report, run_scenario
-from evmap.sources.config import config_path, load_config
+from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import load_scenario
 
 SCENARIOS = {
@@ -35,6 +35,10 @@ RULE_COLUMNS = {
     "glass_explained": ("glass explained", "{:.3f}"),
     "mean_conflict": ("mean conflict", "{:.3f}"),
     "map_error": ("map error (m)", "{:.3f}"),
+    "spurious_unidentified": ("spurious unidentified", "{:.3f}"),
+    "free_behind_walls": ("free cells behind walls", "{:.3f}"),
+    "noise_recall_pooled": ("noise recall, pooled", "{:.3f}"),
+    "real_loss_pooled": ("real loss, pooled", "{:.3f}"),
     "lines": ("lines", "{:.1f}"),
     "unidentified": ("unidentified", "{:.2f}"),
     "seconds_per_world": ("s per world", "{:.3f}"),
@@ -65,22 +69,21 @@ def scenario_table(configs: list[str]) -> str:
     return "\n".join(out)
 
 
-def rule_table(comparisons: dict[str, Comparison]) -> str:
+def rule_table(comparison: Comparison) -> str:
     """The "Rules on generated worlds" table: the means of summary.csv (with their 95 % intervals for the
-    noise recall and the real loss), one row per config and rule."""
+    noise recall and the real loss) and the pooled ratios, one row per config and rule."""
     out = [
         "| config | rule | " + " | ".join(h for h, _ in RULE_COLUMNS.values()) + " |",
         "| --- | --- | " + " | ".join("---:" for _ in RULE_COLUMNS) + " |",
     ]
-    for name, comparison in comparisons.items():
-        for row in comparison.summary:
-            cells = []
-            for c, (_, fmt) in RULE_COLUMNS.items():
-                cell = "" if row[c] is None else fmt.format(row[c])
-                if c in ("noise_recall", "real_loss") and row.get(f"{c}_lo") is not None:
-                    cell += f" ({fmt.format(row[f'{c}_lo'])}–{fmt.format(row[f'{c}_hi'])})"
-                cells.append(cell)
-            out.append(f"| {name} | {row['rule']} | " + " | ".join(cells) + " |")
+    for row in comparison.summary:
+        cells = []
+        for c, (_, fmt) in RULE_COLUMNS.items():
+            cell = "" if row[c] is None else fmt.format(row[c])
+            if c in ("noise_recall", "real_loss") and row.get(f"{c}_lo") is not None:
+                cell += f" ({fmt.format(row[f'{c}_lo'])}–{fmt.format(row[f'{c}_hi'])})"
+            cells.append(cell)
+        out.append(f"| {row['config']} | {row['rule']} | " + " | ".join(cells) + " |")
     return "\n".join(out)
 
 
@@ -94,17 +97,13 @@ def main() -> None:
     configs = args.configs.split(",")
     print("### Other scenarios\n")
     print(scenario_table(configs))
-    comparisons = {
-        name: run_comparison(
-            DEFAULT_RULES, args.worlds, args.seed, scheduler=args.scheduler, progress=True,
-            config_path=config_path(name),
-        )
-        for name in configs
-    }  # fmt: skip
+    comparison = run_comparison(
+        DEFAULT_RULES, args.worlds, args.seed, scheduler=args.scheduler, progress=True, configs=configs
+    )
     print(
         f"\n### Rules on {args.worlds} generated worlds (`evmap compare ... --worlds {args.worlds} --seed {args.seed}`)\n"
     )
-    print(rule_table(comparisons))
+    print(rule_table(comparison))
 
 
 if __name__ == "__main__":

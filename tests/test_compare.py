@@ -68,7 +68,7 @@ def test_same_seed_same_numbers(synchronous):
     again = run_comparison(RULES, 2, 5, scheduler="threads", progress=False)
     assert _numbers(again.rows) == _numbers(synchronous.rows)
     assert _numbers(again.summary) == _numbers(synchronous.summary)
-    assert all(np.array_equal(again.beliefs[r], synchronous.beliefs[r]) for r in RULES)
+    assert all(np.array_equal(again.beliefs[v], synchronous.beliefs[v]) for v in synchronous.variants)
     assert again.scenarios == synchronous.scenarios
     other = run_comparison(RULES, 2, 6, scheduler="synchronous", progress=False)
     assert _numbers(other.rows) != _numbers(synchronous.rows)

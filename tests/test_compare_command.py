@@ -17,7 +17,6 @@ from evmap.maps.app.cli import main
 from evmap.maps.app.compare import COLUMNS, METRICS, SUMMARY_COLUMNS, iter_results, run_comparison, write_comparison
 from evmap.maps.app.compare_plots import PLOT_FILES
 from evmap.maps.app.staging import MARKER
-from evmap.sources.config import config_path
 
 ARGS = ["--rules", "dempster,yager,dubois_prade", "--worlds", "3", "--seed", "2", "--quiet"]
 
@@ -64,7 +63,7 @@ def test_same_seed_same_numbers_whatever_the_scheduler():
     a = run_comparison(["dempster", "murphy"], 9, 4, scheduler="synchronous", progress=False)
     b = run_comparison(["dempster", "murphy"], 9, 4, scheduler="threads", workers=2, progress=False)
     assert numbers(a) == numbers(b)
-    assert all(np.array_equal(a.beliefs[r], b.beliefs[r]) for r in a.rules)
+    assert all(np.array_equal(a.beliefs[v], b.beliefs[v]) for v in a.variants)
 
 
 def test_results_stream_in_world_order_and_lazily():
@@ -111,7 +110,7 @@ def test_ctrl_c_stops_the_cluster_cleanly_with_one_line_and_exit_130(tmp_path):
 def test_write_comparison_writes_a_gathered_comparison_like_the_command(tmp_path, written):
     comparison = run_comparison(
         ["dempster", "yager", "dubois_prade"], 3, 2, scheduler="synchronous", progress=False,
-        config_path=config_path("default"),  # the command's default config
+        configs=("default",),  # the command's default config
     )  # fmt: skip
     write_comparison(comparison, tmp_path)
     for name in ("summary.csv", "worlds.csv"):

@@ -1,7 +1,9 @@
-"""``evmap compare``: combination rules compared on many generated worlds with ground truth.
+"""``evmap compare``: combination rules and configs compared on many generated worlds with ground truth.
 
-The parts, by concern: :mod:`~evmap.maps.app.compare_metrics` (one world: the
-rules fused on the same scans, the figures of each map),
+The parts, by concern: :mod:`~evmap.maps.app.compare_configs` (which configs),
+:mod:`~evmap.maps.app.compare_metrics` (one world: the configs and rules fused
+on the same scans, the figures of each map), :mod:`~evmap.maps.app.compare_hazards`
+(what a planner would trip on),
 :mod:`~evmap.maps.app.compare_runner` (many worlds, in parallel with Dask),
 :mod:`~evmap.maps.app.compare_tables` (the running summary, CSV and Markdown),
 :mod:`~evmap.maps.app.compare_plots`. This module is the command (its arguments
@@ -57,7 +59,6 @@ from evmap.maps.app.compare_tables import (
     write_summary,
 )
 from evmap.maps.app.staging import COMPARE_LAYOUT, MIN_FREE_BYTES, claim_output
-from evmap.sources.config import config_path
 
 __all__ = [
     "BELIEF_BINS",
@@ -115,20 +116,17 @@ def compare_command(args: argparse.Namespace) -> int:
     ValueError (``evmap: error: ...``, exit 2) on bad input or output, before the work.
     """
     rules = check_rules(args.rules)
-    config = config_path(args.config)
-    if not config.is_file():
-        raise ValueError(f"--config: no such file {config}")
-    check_run(args.worlds, args.seed, args.workers, config)
+    configs = check_run(args.worlds, args.seed, args.workers, args.configs or args.config)
     space = MIN_FREE_BYTES + BYTES_PER_WORLD * args.worlds
     try:
         with claim_output(args.out, force=args.force, layout=COMPARE_LAYOUT, free_bytes=space) as staging:
-            tally = Tally(rules)
+            tally = Tally(configs, rules)
             with WorldsWriter(staging.path) as writer:
                 for result in iter_results(
                     rules,
                     args.worlds,
                     args.seed,
-                    config_path=config,
+                    configs=configs,
                     scheduler=args.scheduler,
                     workers=args.workers,
                     progress=not args.quiet,

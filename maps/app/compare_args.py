@@ -32,7 +32,7 @@ def add_compare_parser(subparsers: argparse._SubParsersAction) -> argparse.Argum
     compare = subparsers.add_parser(
         "compare",
         help="compare combination rules on generated worlds with ground truth",
-        description="Run every rule on every generated world with the same scans; "
+        description="Run every rule (and config) on every generated world with the same scans; "
         "write tables, per-world rows and plots.",
     )
     compare.add_argument(
@@ -42,10 +42,18 @@ def add_compare_parser(subparsers: argparse._SubParsersAction) -> argparse.Argum
     compare.add_argument("--seed", type=int, default=0, help="seed of the experiment (default: %(default)s)")
     compare.add_argument("--out", required=True, help="output directory: must not exist or be empty (see --force)")
     compare.add_argument("--force", action="store_true", help="replace --out if evmap wrote it")
-    compare.add_argument(
+    which = compare.add_mutually_exclusive_group()
+    which.add_argument(
         "--config",
         default="default",
-        help="config file, or a packaged config by name: default (the default: the evidence beyond the paper), paper (the paper's method)",
+        help="config file, or a packaged config by name: default (the default: the evidence beyond the paper), "
+        "paper (the paper's method)",
+    )
+    which.add_argument(
+        "--configs",
+        help="comma-separated configs to compare, each a file, a packaged name, BASE+SOURCE (BASE with a "
+        "noise-elimination source of the default config added, e.g. paper+contour_free), or 'ablation' "
+        "(paper, paper plus each new source, default); one row per config and rule",
     )
     compare.add_argument(
         "--scheduler",

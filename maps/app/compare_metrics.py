@@ -1,9 +1,10 @@
-"""The figures of one world in a rule comparison: fuse every rule on the same scans, measure each map.
+"""The figures of one world in a comparison: fuse every config and rule on the same scans, measure each map.
 
 Every rule runs on the same scans: the world is sensed once, from all its
-poses, and the same observations are folded into one belief map per rule
-(:func:`fuse_rules`). Per world and rule, :func:`world_metrics` gives the
-:data:`METRICS` (what each measures: :data:`DEFINITIONS`), the :data:`COUNTS`
+poses, and the same observations are folded into one belief map per config and
+rule (:func:`fuse_configs`; configs that sense alike share the scans). Per world,
+config and rule, :func:`world_metrics` gives the :data:`METRICS` and the
+:data:`HAZARDS` (what each measures: :data:`DEFINITIONS`), the :data:`COUNTS`
 and the timings. A ratio whose denominator is empty (no noise segment, no such
 glass wall, no line) is ``None``.
 
@@ -20,7 +21,7 @@ glass wall, no line) is ``None``.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -28,6 +29,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps import new_map
+from evmap.maps.app.compare_configs import sensing_key
+from evmap.maps.app.compare_hazards import (
+    SPURIOUS_FAR,
+    SPURIOUS_ON_LINE,
+    free_behind_walls,
+    spurious_unidentified,
+    sunlight_seen_twice,
+)
 from evmap.maps.app.metrics import share
 from evmap.maps.app.run import Run
 from evmap.maps.observation import observe
@@ -42,12 +51,15 @@ __all__ = [
     "COLUMNS",
     "COUNTS",
     "DEFINITIONS",
+    "EXTRA_COLUMNS",
     "GLASS_RADIUS",
+    "HAZARDS",
     "MAP_ERROR_STEP",
     "METRICS",
     "TRUTHS",
     "WorldResult",
     "belief_histograms",
+    "fuse_configs",
     "fuse_rules",
     "line_beliefs",
     "map_error",
@@ -61,8 +73,17 @@ METRICS = ("noise_recall", "real_loss", "glass_explained", "mean_conflict", "map
 COUNTS = ("noise_segments", "real_segments", "lines", "unidentified")
 """Counts per world and rule: segments by truth, map lines with belief >= 0.5, unidentified objects."""
 
+HAZARDS = ("spurious_unidentified", "free_behind_walls")
+"""The figures per world, config and rule of what a planner would trip on (:mod:`~evmap.maps.app.compare_hazards`)."""
+
 COLUMNS = ("rule", *METRICS, "max_conflict", *COUNTS, "seconds_per_world", "seconds_simulate")
-"""The columns of ``summary.csv``; ``worlds.csv`` has ``world`` first. ``seconds...`` are timings."""
+"""The first columns of ``summary.csv``, as older versions wrote them; ``worlds.csv`` has ``world`` first.
+``seconds...`` are timings."""
+
+EXTRA_COLUMNS = ("config", *HAZARDS, "noise_eliminated", "real_eliminated", "sunlight_seen_twice")
+"""The columns after :data:`COLUMNS` in ``worlds.csv`` (and, but ``config``, averaged in ``summary.csv``):
+the config, the hazards, the eliminated segments by truth, and whether every sunlight region is in
+sight and range of two poses or more (1) or not (0)."""
 
 GLASS_RADIUS = 0.3
 """An unidentified object within this distance (m) of a glass wall explains it."""
@@ -88,34 +109,52 @@ DEFINITIONS = {
         f"mean distance (m) to the nearest true surface of points every {MAP_ERROR_STEP} m along the final lines "
         "with belief at least 0.5"
     ),
+    "spurious_unidentified": (
+        f"unidentified objects farther than {SPURIOUS_FAR} m from every true surface or within {SPURIOUS_ON_LINE} m "
+        "of a line with belief at least 0.5 / unidentified objects"
+    ),
+    "free_behind_walls": (
+        "free cells of the occupancy grid (5 cm) behind true surfaces: every pose's sight line to the cell meets "
+        "one more than a cell before it / free cells"
+    ),
 }
-"""What each of :data:`METRICS` measures, per world and rule (``summary.md`` prints it)."""
+"""What each of :data:`METRICS` and :data:`HAZARDS` measures, per world, config and rule (``summary.md`` prints it)."""
 
 TRUTHS = ("real", "noise")
 """The simulator's truths of a segment, in the order of the belief histograms' rows."""
 
 
-def fuse_rules(scenario: Scenario, config: Config, rules: Sequence[str]) -> dict[str, Run]:
-    """Sense the scenario once from every pose, then fold the same observations into one map per rule.
+def fuse_configs(scenario: Scenario, configs: Mapping[str, Config], rules: Sequence[str]) -> dict[tuple[str, str], Run]:
+    """Sense the scenario once from every pose, then fold the same observations into one map per config and rule.
 
-    Each :class:`~evmap.maps.app.run.Run` shares the world and the observations; its
-    ``seconds`` are ``simulate`` (shared), ``fuse`` (this rule) and ``total``.
+    Configs whose sensors differ (:func:`~evmap.maps.app.compare_configs.sensing_key`) sense
+    the world anew. Each :class:`~evmap.maps.app.run.Run` shares the world and its
+    observations; its ``seconds`` are ``simulate`` (shared), ``fuse`` (this config and
+    rule) and ``total``.
     """
     world = World(scenario)
-    start = time.perf_counter()
-    observations = [observe(world, k, config) for k in range(len(world.poses))]
-    simulate = time.perf_counter() - start
+    sensed: dict[str, tuple[list[Any], float]] = {}
     runs = {}
-    for rule in rules:
-        cfg = config.with_rule(rule)
-        start = time.perf_counter()
-        bm = new_map(cfg)
-        outcomes = [fold_observation(bm, obs, cfg) for obs in observations]
-        fuse = time.perf_counter() - start
-        runs[rule] = Run(
-            world, cfg, observations, outcomes, bm, {"simulate": simulate, "fuse": fuse, "total": simulate + fuse}
-        )
+    for name, config in configs.items():
+        key = sensing_key(config)
+        if key not in sensed:
+            start = time.perf_counter()
+            sensed[key] = [observe(world, k, config) for k in range(len(world.poses))], time.perf_counter() - start
+        observations, simulate = sensed[key]
+        for rule in rules:
+            cfg = config.with_rule(rule)
+            start = time.perf_counter()
+            bm = new_map(cfg)
+            outcomes = [fold_observation(bm, obs, cfg) for obs in observations]
+            fuse = time.perf_counter() - start
+            seconds = {"simulate": simulate, "fuse": fuse, "total": simulate + fuse}
+            runs[name, rule] = Run(world, cfg, observations, outcomes, bm, seconds)
     return runs
+
+
+def fuse_rules(scenario: Scenario, config: Config, rules: Sequence[str]) -> dict[str, Run]:
+    """:func:`fuse_configs` of one config: the runs by rule."""
+    return {rule: run for (_, rule), run in fuse_configs(scenario, {config.name: config}, rules).items()}
 
 
 def world_metrics(run: Run, glass: NDArray[np.intp] | None = None) -> dict[str, float | int | None]:
@@ -136,6 +175,8 @@ def world_metrics(run: Run, glass: NDArray[np.intp] | None = None) -> dict[str, 
     if len(glass):
         d = _segment_distance(unidentified, surfaces.p[glass], surfaces.q[glass])  # (U, G)
         explained = float((d <= GLASS_RADIUS).any(axis=0).mean()) if len(unidentified) else 0.0
+    spurious, objects = spurious_unidentified(run.map, run.world)
+    behind, free = free_behind_walls(run.map, run.world)
     return {
         "noise_recall": share(store.eliminated & noise, noise),
         "real_loss": share(store.eliminated & real, real),
@@ -149,6 +190,11 @@ def world_metrics(run: Run, glass: NDArray[np.intp] | None = None) -> dict[str, 
         "unidentified": len(unidentified),
         "seconds_per_world": run.seconds["fuse"],
         "seconds_simulate": run.seconds["simulate"],
+        "spurious_unidentified": spurious / objects if objects else None,
+        "free_behind_walls": behind / free if free else None,
+        "noise_eliminated": int((store.eliminated & noise).sum()),
+        "real_eliminated": int((store.eliminated & real).sum()),
+        "sunlight_seen_twice": int(sunlight_seen_twice(run.world, run.config)),
     }
 
 
@@ -250,13 +296,13 @@ def _segment_distance(
 
 @dataclass(frozen=True)
 class WorldResult:
-    """One world's outcome: its name and YAML, a row per rule, and belief histograms.
+    """One world's outcome: its name and YAML, a row per config and rule, and belief histograms.
 
-    ``beliefs[rule]`` is an int array (2, len(BELIEF_BINS) - 1): segment counts per
+    ``beliefs[config, rule]`` is an int array (2, len(BELIEF_BINS) - 1): segment counts per
     belief bin, real segments then noise segments.
     """
 
     world: str
     yaml: str
     rows: tuple[dict[str, Any], ...]
-    beliefs: dict[str, NDArray[np.int64]]
+    beliefs: dict[tuple[str, str], NDArray[np.int64]]

@@ -1,8 +1,9 @@
-"""A rule comparison's plots: noise recall against real loss, the metrics' intervals, the line beliefs.
+"""A comparison's plots: noise recall against real loss, the metrics' intervals, the line beliefs.
 
-Every rule stays visible when rules agree (Yager's and Dubois–Prade's rules are
-equal on a two-element frame): each rule has its own marker and colour, and its
-mean is drawn shifted sideways by a few points (not data units) from the others.
+One series per config and rule (a *variant*). Every variant stays visible when
+they agree (Yager's and Dubois–Prade's rules are equal on a two-element frame):
+each has its own marker and colour, and its mean is drawn shifted sideways by a
+few points (not data units) from the others.
 """
 
 from __future__ import annotations
@@ -12,16 +13,16 @@ from pathlib import Path
 from matplotlib.figure import Figure
 from matplotlib.transforms import offset_copy
 
-from evmap.maps.app.compare_metrics import BELIEF_BINS, METRICS
+from evmap.maps.app.compare_metrics import BELIEF_BINS, HAZARDS, METRICS
 from evmap.maps.app.compare_tables import CONFIDENCE, Comparison
 
 __all__ = ["MARKERS", "PLOT_FILES", "SHIFT_POINTS", "write_plots"]
 
 MARKERS = "oDs^vPX*<>"
-"""Marker of the k-th rule (cycled)."""
+"""Marker of the k-th variant (cycled)."""
 
 SHIFT_POINTS = 7.0
-"""Sideways shift (typographic points) between the means of consecutive rules."""
+"""Sideways shift (typographic points) between the means of consecutive variants."""
 
 PLOT_FILES = ("noise_recall_vs_real_loss.png", "metric_intervals.png", "line_beliefs.png")
 """What :func:`write_plots` writes."""
@@ -34,15 +35,14 @@ def write_plots(comparison: Comparison, directory: Path) -> None:
 
 
 def plot_recall_loss(comparison: Comparison, path: Path) -> None:
-    """Noise recall against real loss: each world (dots) and each rule's mean with its intervals (bars)."""
+    """Noise recall against real loss: each world (dots) and each variant's mean with its intervals (bars)."""
     fig = Figure(figsize=(6.4, 4.8))
     ax = fig.subplots()
-    n = len(comparison.rules)
-    for k, rule in enumerate(comparison.rules):
+    n = len(comparison.variants)
+    for k, (variant, row) in enumerate(zip(comparison.variants, comparison.summary, strict=True)):
         color, marker = f"C{k % 10}", MARKERS[k % len(MARKERS)]
-        points = comparison.points[rule]
+        points = comparison.points[variant]
         ax.scatter(points[:, 0], points[:, 1], s=8, alpha=0.25, color=color, linewidths=0)
-        row = next(r for r in comparison.summary if r["rule"] == rule)
         if row["real_loss"] is None or row["noise_recall"] is None:
             continue
         shifted = offset_copy(ax.transData, fig=fig, x=(k - (n - 1) / 2) * SHIFT_POINTS, y=0, units="points")
@@ -57,13 +57,13 @@ def plot_recall_loss(comparison: Comparison, path: Path) -> None:
             mec="k",
             capsize=3,
             transform=shifted,
-            label=rule,
+            label=comparison.label(variant),
             zorder=3,
         )
     ax.set_xlabel("real loss (real segments eliminated)")
     ax.set_ylabel("noise recall (phantom segments eliminated)")
     ax.set_title(
-        f"{comparison.worlds} worlds: worlds (dots), rule means with {CONFIDENCE:.0%} intervals\n"
+        f"{comparison.worlds} worlds: worlds (dots), means with {CONFIDENCE:.0%} intervals\n"
         "(means shifted sideways by a few points so that equal ones stay visible)",
         fontsize="medium",
     )
@@ -73,13 +73,13 @@ def plot_recall_loss(comparison: Comparison, path: Path) -> None:
 
 
 def plot_intervals(comparison: Comparison, path: Path) -> None:
-    """One panel per metric: each rule's mean and interval on its own row."""
-    rules = comparison.rules
-    fig = Figure(figsize=(3.0 * len(METRICS), 0.45 * len(rules) + 1.6))
-    axes = fig.subplots(1, len(METRICS), sharey=True)
-    for ax, metric in zip(axes, METRICS, strict=True):
-        for k, rule in enumerate(rules):
-            row = comparison.summary[k]
+    """One panel per metric: each variant's mean and interval on its own row."""
+    labels = [comparison.label(v) for v in comparison.variants]
+    metrics = (*METRICS, *HAZARDS)
+    fig = Figure(figsize=(3.0 * len(metrics), 0.45 * len(labels) + 1.6))
+    axes = fig.subplots(1, len(metrics), sharey=True)
+    for ax, metric in zip(axes, metrics, strict=True):
+        for k, row in enumerate(comparison.summary):
             if row[metric] is None:
                 continue
             ax.errorbar(
@@ -93,25 +93,25 @@ def plot_intervals(comparison: Comparison, path: Path) -> None:
             )
         ax.set_title(metric, fontsize="medium")
         ax.grid(axis="x", alpha=0.3)
-    axes[0].set_yticks(range(len(rules)), rules)
-    axes[0].set_ylim(len(rules) - 0.5, -0.5)
+    axes[0].set_yticks(range(len(labels)), labels)
+    axes[0].set_ylim(len(labels) - 0.5, -0.5)
     fig.suptitle(f"Means over {comparison.worlds} worlds with {CONFIDENCE:.0%} Student t intervals", fontsize="medium")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
 
 
 def plot_beliefs(comparison: Comparison, path: Path) -> None:
-    """Per rule: the share of real and phantom segments per Bel(real) of their line."""
-    n = len(comparison.rules)
+    """Per variant: the share of real and phantom segments per Bel(real) of their line."""
+    n = len(comparison.variants)
     cols = min(n, 3)
     rows = -(-n // cols)
     fig = Figure(figsize=(4.2 * cols, 3.2 * rows))
     axes = fig.subplots(rows, cols, squeeze=False, sharey=True)
-    for ax, rule in zip(axes.flat, comparison.rules):
-        for counts, label, color in zip(comparison.beliefs[rule], ("real", "phantom"), ("C0", "C3")):
+    for ax, variant in zip(axes.flat, comparison.variants):
+        for counts, label, color in zip(comparison.beliefs[variant], ("real", "phantom"), ("C0", "C3")):
             share = counts / max(int(counts.sum()), 1)
             ax.stairs(share, BELIEF_BINS, label=f"{label} ({int(counts.sum())})", color=color, fill=False, lw=1.5)
-        ax.set_title(rule)
+        ax.set_title(comparison.label(variant))
         ax.set_xlabel("Bel(real) of the segment's line (0: eliminated)")
         ax.legend(fontsize="small")
     for ax in axes.flat[n:]:

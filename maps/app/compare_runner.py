@@ -2,8 +2,8 @@
 
 World ``i`` of the experiment ``seed`` is generated from ``world_seed(seed, i)``
 inside the worker that computes it: tasks carry only indices, the seed, the
-rule names, the config path and the generator's parameters; each worker loads
-the config once (:func:`compare_batch`). Worlds go in batches, at most
+rule and config names and the generator's parameters; each worker builds each
+config once (:func:`compare_batch`). Worlds go in batches, at most
 :data:`MAX_IN_FLIGHT_PER_WORKER` batches per worker at a time, and come back in
 world order (:func:`iter_results`): memory is bounded whatever the number of
 worlds, and the numbers are the same whatever the scheduler.
@@ -18,7 +18,6 @@ the address of a Dask scheduler.
 from __future__ import annotations
 
 import concurrent.futures
-import functools
 import gc
 import itertools
 import logging
@@ -29,15 +28,15 @@ import subprocess
 import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from pathlib import Path
 from subprocess import DEVNULL
 from typing import Any
 
 from evidential import RULES
 from evmap.maps.app.compare_args import SYNCHRONOUS_BELOW
-from evmap.maps.app.compare_metrics import WorldResult, belief_histograms, fuse_rules, visible_glass, world_metrics
+from evmap.maps.app.compare_configs import config_names, resolve_config
+from evmap.maps.app.compare_hazards import sunlight_seen_twice
+from evmap.maps.app.compare_metrics import WorldResult, belief_histograms, fuse_configs, visible_glass, world_metrics
 from evmap.maps.app.compare_tables import Comparison, Tally
-from evmap.sources.config import Config, load_config
 from evmap.sources.plugins import load_plugins, refusal
 from evmap.sources.sim.worldgen import WorldGenParams, generate_world, scenario_yaml, world_seed
 
@@ -80,32 +79,40 @@ GC_EVERY = 16
 and the collector pauses of the map code (``gc.freeze``/``unfreeze``) keep the automatic full pass from running:
 without this a process's memory grows with the worlds. A pass takes about 0.1 s."""
 
+DEFAULT_CONFIGS = ("default",)
+"""The configs a comparison runs unless told (``evmap compare --configs``)."""
+
 _worlds_done = itertools.count(1)
 
 
-@functools.lru_cache(maxsize=4)
-def _config(path: str | None) -> Config:
-    return load_config(path)
-
-
 def compare_world(
-    index: int, seed: int, rules: Sequence[str], config_path: str | None = None, params: WorldGenParams | None = None
+    index: int,
+    seed: int,
+    rules: Sequence[str],
+    configs: Sequence[str] = DEFAULT_CONFIGS,
+    params: WorldGenParams | None = None,
 ) -> WorldResult:
-    """World ``index`` of the experiment ``seed``: generated, sensed once, fused by every rule.
+    """World ``index`` of the experiment ``seed``: generated, sensed once, fused by every config and rule.
 
-    >>> r = compare_world(0, 1, ["dempster", "bayes"])
-    >>> r.world, [row["rule"] for row in r.rows], r.beliefs["bayes"].shape
-    ('world-0000', ['dempster', 'bayes'], (2, 20))
+    ``configs``: names of :func:`~evmap.maps.app.compare_configs.resolve_config`.
+
+    >>> r = compare_world(0, 1, ["dempster", "bayes"], ["paper", "default"])
+    >>> r.world, [(row["config"], row["rule"]) for row in r.rows][:3], r.beliefs["paper", "bayes"].shape
+    ('world-0000', [('paper', 'dempster'), ('paper', 'bayes'), ('default', 'dempster')], (2, 20))
     """
     if any(rule not in RULES for rule in rules):
         load_plugins()  # a worker process of its own: the rules of installed packages, registered on first use
-    config = _config(config_path)
     name = f"world-{index:04d}"
     scenario = generate_world(world_seed(seed, index), params, name=name)
-    runs = fuse_rules(scenario, config, rules)
-    glass = visible_glass(next(iter(runs.values())).world, config)
-    rows = tuple({"world": name, "rule": rule, **world_metrics(run, glass)} for rule, run in runs.items())
-    beliefs = {rule: belief_histograms(run) for rule, run in runs.items()}
+    runs = fuse_configs(scenario, {c: resolve_config(c) for c in configs}, rules)
+    first = next(iter(runs.values()))
+    glass = visible_glass(first.world, first.config)
+    twice = int(sunlight_seen_twice(first.world, first.config))
+    rows = tuple(
+        {"world": name, "config": c, "rule": rule, **world_metrics(run, glass), "sunlight_seen_twice": twice}
+        for (c, rule), run in runs.items()
+    )
+    beliefs = {variant: belief_histograms(run) for variant, run in runs.items()}
     if next(_worlds_done) % GC_EVERY == 0:
         gc.collect()
     return WorldResult(name, scenario_yaml(scenario), rows, beliefs)
@@ -116,11 +123,11 @@ def compare_batch(
     stop: int,
     seed: int,
     rules: Sequence[str],
-    config_path: str | None = None,
+    configs: Sequence[str] = DEFAULT_CONFIGS,
     params: WorldGenParams | None = None,
 ) -> list[WorldResult]:
     """Worlds ``start`` to ``stop - 1`` (:func:`compare_world`): the unit of work sent to a worker."""
-    return [compare_world(i, seed, rules, config_path, params) for i in range(start, stop)]
+    return [compare_world(i, seed, rules, configs, params) for i in range(start, stop)]
 
 
 def batch_size(worlds: int, workers: int) -> int:
@@ -156,10 +163,11 @@ def check_rules(rules: Sequence[str] | str) -> tuple[str, ...]:
     return tuple(names)
 
 
-def check_run(worlds: int, seed: int, workers: int | None, config_path: str | Path | None) -> str | None:
-    """Check the numbers of a comparison and load its config (a bad one fails here, before any work).
+def check_run(worlds: int, seed: int, workers: int | None, configs: Sequence[str] | str) -> tuple[str, ...]:
+    """Check the numbers of a comparison and build its configs (a bad one fails here, before any work).
 
-    Returns the config path as a string (``None``: the packaged config).
+    ``configs``: names, or the text of ``--configs`` (:func:`~evmap.maps.app.compare_configs.config_names`).
+    Returns the config names.
     """
     if not isinstance(worlds, int) or not 1 <= worlds <= MAX_WORLDS:
         raise ValueError(f"worlds must be an integer from 1 to {MAX_WORLDS}, got {worlds!r}")
@@ -167,9 +175,7 @@ def check_run(worlds: int, seed: int, workers: int | None, config_path: str | Pa
         raise ValueError(f"seed must be an integer with 0 <= seed < 2**63, got {seed!r}")
     if workers is not None and (not isinstance(workers, int) or workers < 1):
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
-    path = None if config_path is None else str(config_path)
-    _config(path)
-    return path
+    return config_names(configs if isinstance(configs, str) else ",".join(map(str, configs)))
 
 
 def iter_results(
@@ -177,20 +183,21 @@ def iter_results(
     worlds: int,
     seed: int,
     *,
-    config_path: str | Path | None = None,
+    configs: Sequence[str] | str = DEFAULT_CONFIGS,
     params: WorldGenParams | None = None,
     scheduler: str | None = None,
     workers: int | None = None,
     progress: bool = True,
 ) -> Iterator[WorldResult]:
-    """Every rule on ``worlds`` generated worlds with the same scans, yielded in world order as they are done.
+    """Every config and rule on ``worlds`` generated worlds with the same scans, yielded in world order.
 
     Parameters
     ----------
     rules : names in :data:`evidential.RULES`.
     worlds : how many worlds (1 to :data:`MAX_WORLDS`); world ``i`` has seed ``world_seed(seed, i)``.
     seed : the experiment's seed, 0 <= seed < 2**63.
-    config_path : the config file (default: the packaged paper's); a cluster's workers must be able to read it.
+    configs : config names (:mod:`~evmap.maps.app.compare_configs`; default: the packaged default config);
+        a cluster's workers must be able to read the files.
     params : the world generator's parameters.
     scheduler : see the module doc.
     workers : processes of the local cluster or pool (default: one per CPU).
@@ -203,14 +210,14 @@ def iter_results(
         within :data:`CONNECT_TIMEOUT` seconds, before any world is computed.
     """
     rules = check_rules(rules)
-    path = check_run(worlds, seed, workers, config_path)
+    names = check_run(worlds, seed, workers, configs)
     from tqdm import tqdm
 
     bar = tqdm(total=worlds, desc="compare", unit="world", file=sys.stderr, disable=not progress, mininterval=0.5)
     with bar:
         if scheduler == "synchronous" or (scheduler is None and worlds < SYNCHRONOUS_BELOW):
             for i in range(worlds):
-                yield compare_world(i, seed, rules, path, params)
+                yield compare_world(i, seed, rules, names, params)
                 bar.update(1)
             return
         bar.set_postfix_str("starting workers", refresh=True)
@@ -223,7 +230,7 @@ def iter_results(
             while True:
                 while len(pending) < slots * MAX_IN_FLIGHT_PER_WORKER and (start := next(starts, None)) is not None:
                     stop = min(start + size, worlds)
-                    pending[pool.submit(compare_batch, start, stop, seed, rules, path, params)] = start
+                    pending[pool.submit(compare_batch, start, stop, seed, rules, names, params)] = start
                 if not pending:
                     return
                 for future in wait(list(pending)):
@@ -243,12 +250,13 @@ def run_comparison(rules: Sequence[str], worlds: int, seed: int, **options: Any)
     ``options`` are those of :func:`iter_results`. For big runs stream instead (``evmap compare`` does).
 
     >>> c = run_comparison(["dempster", "yager"], 2, 1, scheduler="synchronous", progress=False)
-    >>> [row["rule"] for row in c.summary], len(c.rows), sorted(c.scenarios)
-    (['dempster', 'yager'], 4, ['world-0000', 'world-0001'])
+    >>> [(row["config"], row["rule"]) for row in c.summary], len(c.rows), sorted(c.scenarios)
+    ([('default', 'dempster'), ('default', 'yager')], 4, ['world-0000', 'world-0001'])
     """
     rules = check_rules(rules)
-    tally, rows, scenarios = Tally(rules), [], {}
-    for result in iter_results(rules, worlds, seed, **options):
+    configs = check_run(worlds, seed, options.get("workers"), options.pop("configs", DEFAULT_CONFIGS))
+    tally, rows, scenarios = Tally(configs, rules), [], {}
+    for result in iter_results(rules, worlds, seed, configs=configs, **options):
         tally.add(result)
         rows += result.rows
         scenarios[result.world] = result.yaml

@@ -1,10 +1,11 @@
-"""A rule comparison's tables: the running summary over worlds, ``worlds.csv``, ``summary.csv`` and ``summary.md``.
+"""A comparison's tables: the running summary over worlds, ``worlds.csv``, ``summary.csv`` and ``summary.md``.
 
 The summary is built world by world (:class:`Tally`), in world order, so its
 memory does not grow with the number of worlds and its numbers do not depend
-on the parallelism: per rule and column, the mean over the worlds where the
-value is defined (empty ratios excluded) and, for each of the :data:`METRICS`,
-a 95% Student t interval of that mean (``<metric>_lo``, ``<metric>_hi``).
+on the parallelism: per config, rule and column, the mean over the worlds where
+the value is defined (empty ratios excluded) and, for each of the :data:`METRICS`
+and :data:`HAZARDS`, a 95% Student t interval of that mean (``<metric>_lo``,
+``<metric>_hi``); and the :data:`POOLED` ratios, over the segments of all worlds.
 """
 
 from __future__ import annotations
@@ -20,12 +21,21 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import stats
 
-from evmap.maps.app.compare_metrics import BELIEF_BINS, COLUMNS, DEFINITIONS, METRICS, WorldResult
+from evmap.maps.app.compare_metrics import (
+    BELIEF_BINS,
+    COLUMNS,
+    DEFINITIONS,
+    EXTRA_COLUMNS,
+    HAZARDS,
+    METRICS,
+    WorldResult,
+)
 
 __all__ = [
     "CONFIDENCE",
     "INTERVAL_COLUMNS",
     "PLOT_WORLDS",
+    "POOLED",
     "SUMMARY_COLUMNS",
     "WORLD_COLUMNS",
     "Comparison",
@@ -39,19 +49,37 @@ __all__ = [
 CONFIDENCE = 0.95
 """Coverage of the interval of each metric's mean over the worlds (Student t)."""
 
-INTERVAL_COLUMNS = tuple(f"{m}_{end}" for m in METRICS for end in ("lo", "hi"))
-"""The interval columns of ``summary.csv``, after the older ones."""
+INTERVAL_COLUMNS = tuple(f"{m}_{end}" for m in (*METRICS, *HAZARDS) for end in ("lo", "hi"))
+"""The interval columns of ``summary.csv``."""
 
-SUMMARY_COLUMNS = (*COLUMNS, "worlds", *INTERVAL_COLUMNS)
-"""The columns of ``summary.csv``: those other tools read first, new ones appended."""
+POOLED = {
+    "noise_recall_pooled": ("noise_eliminated", "noise_segments", False),
+    "real_loss_pooled": ("real_eliminated", "real_segments", False),
+    "noise_recall_seen_twice": ("noise_eliminated", "noise_segments", True),
+}
+"""Ratios over the segments of all worlds: name -> (numerator, denominator, only the worlds where every
+sunlight region is in sight of two poses or more)."""
 
-WORLD_COLUMNS = ("world", *COLUMNS)
-"""The columns of ``worlds.csv``."""
+SUMMARY_COLUMNS = (
+    *COLUMNS,
+    "worlds",
+    *INTERVAL_COLUMNS[: 2 * len(METRICS)],
+    *EXTRA_COLUMNS,
+    *INTERVAL_COLUMNS[2 * len(METRICS) :],
+    *POOLED,
+)
+"""The columns of ``summary.csv``: those other tools read first, as older versions wrote them; new ones appended."""
+
+WORLD_COLUMNS = ("world", *COLUMNS, *EXTRA_COLUMNS)
+"""The columns of ``worlds.csv``: older ones first."""
 
 PLOT_WORLDS = 2000
 """The per-world points of the first this many worlds are kept for the plots (memory stays bounded)."""
 
-_VALUES = COLUMNS[1:]
+_VALUES = (*COLUMNS[1:], *EXTRA_COLUMNS[1:])
+
+Variant = tuple[str, str]
+"""(config, rule): one map per world."""
 
 
 @dataclass(frozen=True)
@@ -60,90 +88,116 @@ class Comparison:
 
     Attributes
     ----------
-    rules, worlds, seed : what was run.
-    summary : one dict per rule (the ``summary.csv`` rows): means and intervals over the worlds.
-    beliefs : rule -> (2, bins) segment counts per line-belief bin, real then noise.
-    points : rule -> (n, 2) (real_loss, noise_recall) of the first :data:`PLOT_WORLDS` worlds where both are defined.
-    rows : one dict per world and rule (the ``worlds.csv`` rows), in world order; empty when streamed to files.
+    configs, rules, worlds, seed : what was run.
+    summary : one dict per config and rule (the ``summary.csv`` rows): means and intervals over the worlds.
+    beliefs : (config, rule) -> (2, bins) segment counts per line-belief bin, real then noise.
+    points : (config, rule) -> (n, 2) (real_loss, noise_recall) of the first :data:`PLOT_WORLDS` worlds
+        where both are defined.
+    rows : one dict per world, config and rule (the ``worlds.csv`` rows), in world order; empty when streamed.
     scenarios : world name -> its scenario YAML; empty when streamed to files.
     """
 
+    configs: tuple[str, ...]
     rules: tuple[str, ...]
     worlds: int
     seed: int
     summary: tuple[dict[str, Any], ...]
-    beliefs: dict[str, NDArray[np.int64]]
-    points: dict[str, NDArray[np.float64]]
+    beliefs: dict[Variant, NDArray[np.int64]]
+    points: dict[Variant, NDArray[np.float64]]
     rows: tuple[dict[str, Any], ...] = ()
     scenarios: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def variants(self) -> tuple[Variant, ...]:
+        """Every (config, rule), configs first, in the order of the summary rows."""
+        return tuple((c, r) for c in self.configs for r in self.rules)
+
+    def label(self, variant: Variant) -> str:
+        """How plots and tables name a variant: the rule alone when one config ran, else ``config: rule``."""
+        return variant[1] if len(self.configs) == 1 else f"{variant[0]}: {variant[1]}"
 
 
 @dataclass
 class Tally:
-    """Running per-rule statistics of the :data:`COLUMNS` over the worlds added so far (Welford's algorithm).
+    """Running statistics per config and rule of the columns over the worlds added so far (Welford's algorithm).
 
-    ``count``, ``mean``, ``m2``: rule -> one float per column after ``rule``; a
-    ``None`` value is not counted.
+    ``count``, ``mean``, ``m2``: (config, rule) -> one float per numeric column; a
+    ``None`` value is not counted. ``pooled``: (config, rule) -> sums of the counts
+    that :data:`POOLED` divides.
 
-    >>> t = Tally(("dempster",))
+    >>> t = Tally(("default",), ("dempster",))
     >>> for x in (0.1, 0.2, None, 0.6):
-    ...     t.add_row({"rule": "dempster", **dict.fromkeys(COLUMNS[1:], x)})
+    ...     t.add_row({"config": "default", "rule": "dempster", **dict.fromkeys(_VALUES, x)})
     >>> row = t.summary()[0]
     >>> round(row["noise_recall"], 6), round(row["noise_recall_lo"], 3), round(row["noise_recall_hi"], 3)
     (0.3, -0.357, 0.957)
     """
 
+    configs: tuple[str, ...]
     rules: tuple[str, ...]
     worlds: int = 0
-    count: dict[str, NDArray[np.float64]] = field(default_factory=dict)
-    mean: dict[str, NDArray[np.float64]] = field(default_factory=dict)
-    m2: dict[str, NDArray[np.float64]] = field(default_factory=dict)
-    rows_per_rule: dict[str, int] = field(default_factory=dict)
-    beliefs: dict[str, NDArray[np.int64]] = field(default_factory=dict)
-    points: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
+    count: dict[Variant, NDArray[np.float64]] = field(default_factory=dict)
+    mean: dict[Variant, NDArray[np.float64]] = field(default_factory=dict)
+    m2: dict[Variant, NDArray[np.float64]] = field(default_factory=dict)
+    pooled: dict[Variant, dict[str, float]] = field(default_factory=dict)
+    rows_per_variant: dict[Variant, int] = field(default_factory=dict)
+    beliefs: dict[Variant, NDArray[np.int64]] = field(default_factory=dict)
+    points: dict[Variant, list[tuple[float, float]]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        for rule in self.rules:
-            self.count[rule], self.mean[rule], self.m2[rule] = (np.zeros(len(_VALUES)) for _ in range(3))
-            self.rows_per_rule[rule] = 0
-            self.beliefs[rule] = np.zeros((2, len(BELIEF_BINS) - 1), dtype=np.int64)
-            self.points[rule] = []
+        for v in self.variants:
+            self.count[v], self.mean[v], self.m2[v] = (np.zeros(len(_VALUES)) for _ in range(3))
+            self.pooled[v] = dict.fromkeys(_POOLED_SUMS, 0.0)
+            self.rows_per_variant[v] = 0
+            self.beliefs[v] = np.zeros((2, len(BELIEF_BINS) - 1), dtype=np.int64)
+            self.points[v] = []
+
+    @property
+    def variants(self) -> tuple[Variant, ...]:
+        """Every (config, rule), configs first."""
+        return tuple((c, r) for c in self.configs for r in self.rules)
 
     def add(self, result: WorldResult) -> None:
         """Fold in one world's rows, histograms and plot points (call in world order)."""
         for row in result.rows:
             self.add_row(row)
-            rule = row["rule"]
+            v = row["config"], row["rule"]
             if self.worlds < PLOT_WORLDS and row["noise_recall"] is not None and row["real_loss"] is not None:
-                self.points[rule].append((row["real_loss"], row["noise_recall"]))
-        for rule, counts in result.beliefs.items():
-            self.beliefs[rule] += counts
+                self.points[v].append((row["real_loss"], row["noise_recall"]))
+        for v, counts in result.beliefs.items():
+            self.beliefs[v] += counts
         self.worlds += 1
 
     def add_row(self, row: dict[str, Any]) -> None:
         """Fold in one row of ``worlds.csv``."""
-        rule = row["rule"]
+        v = row["config"], row["rule"]
         values = np.array([np.nan if row[c] is None else row[c] for c in _VALUES], dtype=float)
         seen = ~np.isnan(values)
-        count, mean, m2 = self.count[rule], self.mean[rule], self.m2[rule]
+        count, mean, m2 = self.count[v], self.mean[v], self.m2[v]
         count[seen] += 1
         delta = values[seen] - mean[seen]
         mean[seen] += delta / count[seen]
         m2[seen] += delta * (values[seen] - mean[seen])
-        self.rows_per_rule[rule] += 1
+        for key, (column, twice) in _POOLED_SUMS.items():
+            if row[column] is not None and (not twice or row["sunlight_seen_twice"]):
+                self.pooled[v][key] += row[column]
+        self.rows_per_variant[v] += 1
 
     def summary(self) -> tuple[dict[str, Any], ...]:
-        """One ``summary.csv`` row per rule."""
+        """One ``summary.csv`` row per config and rule."""
         out = []
-        for rule in self.rules:
-            count, mean, m2 = self.count[rule], self.mean[rule], self.m2[rule]
-            row: dict[str, Any] = {"rule": rule}
+        for v in self.variants:
+            count, mean, m2, sums = self.count[v], self.mean[v], self.m2[v], self.pooled[v]
+            row: dict[str, Any] = {"config": v[0], "rule": v[1]}
             row.update({c: float(mean[k]) if count[k] else None for k, c in enumerate(_VALUES)})
-            row["worlds"] = self.rows_per_rule[rule]
-            for metric in METRICS:
+            row["worlds"] = self.rows_per_variant[v]
+            for metric in (*METRICS, *HAZARDS):
                 k = _VALUES.index(metric)
                 lo, hi = _interval(count[k], mean[k], m2[k])
                 row[f"{metric}_lo"], row[f"{metric}_hi"] = lo, hi
+            for name, (numerator, denominator, twice) in POOLED.items():
+                top, bottom = sums[_sum_key(numerator, twice)], sums[_sum_key(denominator, twice)]
+                row[name] = top / bottom if bottom else None
             out.append(row)
         return tuple(out)
 
@@ -151,11 +205,31 @@ class Tally:
         self, seed: int, rows: Sequence[dict[str, Any]] = (), scenarios: dict[str, str] | None = None
     ) -> Comparison:
         """The :class:`Comparison` of the worlds added so far."""
-        points = {r: np.array(p, dtype=float).reshape(-1, 2) for r, p in self.points.items()}
-        beliefs = {r: b.copy() for r, b in self.beliefs.items()}
+        points = {v: np.array(p, dtype=float).reshape(-1, 2) for v, p in self.points.items()}
+        beliefs = {v: b.copy() for v, b in self.beliefs.items()}
         return Comparison(
-            self.rules, self.worlds, seed, self.summary(), beliefs, points, tuple(rows), dict(scenarios or {})
+            self.configs,
+            self.rules,
+            self.worlds,
+            seed,
+            self.summary(),
+            beliefs,
+            points,
+            tuple(rows),
+            dict(scenarios or {}),
         )
+
+
+def _sum_key(column: str, twice: bool) -> str:
+    return f"{column}:seen_twice" if twice else column
+
+
+_POOLED_SUMS = {
+    _sum_key(column, twice): (column, twice)
+    for numerator, denominator, twice in POOLED.values()
+    for column in (numerator, denominator)
+}
+"""The sums :class:`Tally` keeps for :data:`POOLED`: key -> (column, only worlds seen twice)."""
 
 
 def _interval(n: float, mean: float, m2: float) -> tuple[float | None, float | None]:
@@ -210,34 +284,41 @@ def write_summary(comparison: Comparison, directory: Path) -> None:
 
 def summary_markdown(comparison: Comparison) -> str:
     """The summary table in Markdown: what was run, what each metric is, means with their intervals."""
-    shown = [*METRICS, "lines", "unidentified", "seconds_per_world"]
+    shown = [*METRICS, *HAZARDS, *POOLED, "lines", "unidentified", "seconds_per_world"]
+    configs = ", ".join(f"`{c}`" for c in comparison.configs)
     out = [
-        f"# Rule comparison: {comparison.worlds} worlds, seed {comparison.seed}",
+        f"# Comparison: {comparison.worlds} worlds, seed {comparison.seed}, configs {configs}",
         "",
         (
-            "Every rule fused the same scans. Each cell is the mean over the worlds (a ratio with an empty "
-            f"denominator is left out), with, for the metrics, its {CONFIDENCE:.0%} Student t interval over the "
-            "worlds in brackets (`<metric>_lo`, `<metric>_hi` in summary.csv)."
+            "Every config and rule fused the same scans. Each cell is the mean over the worlds (a ratio with an "
+            f"empty denominator is left out), with, for the metrics, its {CONFIDENCE:.0%} Student t interval over "
+            "the worlds in brackets (`<metric>_lo`, `<metric>_hi` in summary.csv); the pooled ratios are over the "
+            "segments of all worlds."
         ),
         "",
-        *[f"- `{m}`: {DEFINITIONS[m]}." for m in METRICS],
+        *[f"- `{m}`: {DEFINITIONS[m]}." for m in (*METRICS, *HAZARDS)],
+        "- `noise_recall_pooled`, `real_loss_pooled`: the same ratios over the segments of all worlds together.",
+        (
+            "- `noise_recall_seen_twice`: pooled noise recall on the worlds where every sunlight region is in range "
+            "and in sight of two poses or more."
+        ),
         (
             "- `lines`: map lines with belief at least 0.5; `unidentified`: unidentified objects; "
-            "`seconds_per_world`: the rule's fusion time on a world."
+            "`seconds_per_world`: the fusion time of the config and rule on a world."
         ),
         "",
-        "| " + " | ".join(["rule", *shown]) + " |",
-        "| " + " | ".join(["---", *["---:"] * len(shown)]) + " |",
+        "| " + " | ".join(["config", "rule", *shown]) + " |",
+        "| " + " | ".join(["---", "---", *["---:"] * len(shown)]) + " |",
     ]
     for row in comparison.summary:
         cells = []
         for c in shown:
             digits = 4 if c.startswith("seconds") else 3
             cell = "" if row[c] is None else f"{row[c]:.{digits}f}"
-            if c in METRICS and row.get(f"{c}_lo") is not None:
+            if row.get(f"{c}_lo") is not None:
                 cell += f" [{row[f'{c}_lo']:.3f}, {row[f'{c}_hi']:.3f}]"
             cells.append(cell)
-        out.append("| " + " | ".join([row["rule"], *cells]) + " |")
+        out.append("| " + " | ".join([row["config"], row["rule"], *cells]) + " |")
     return "\n".join(out) + "\n"
 
 
