@@ -4,7 +4,13 @@ An actual RCD of Type I-III that matched no simulated RCD, and comes from a
 target in sight (:func:`evmap.maps.simulated_sonar.in_sight`), becomes an
 ``unidentified`` point at the pose + its range along its direction, with the
 ``unidentified`` stage's evidence by RCD type; within ``unidentified.merge_radius``
-of an existing one it reinforces that one instead, at most once per pose.
+of an existing one it reinforces that one instead, at most once per pose. An
+RCD is placed on the part of its arc that the map does not explain: an arc
+point within ``unidentified.explained_distance`` of a believed map line
+(:data:`BELIEVED`) may be that line's echo (the matching missed it: the line's
+own simulated RCD is cut differently, merged with a neighbour's, or shifted
+past a gate). An RCD whose whole arc is explained makes no object; one beside a
+wall (a window in it) makes its object on the part beside the line.
 """
 
 from __future__ import annotations
@@ -17,12 +23,16 @@ from numpy.typing import NDArray
 from evidential import MassFunction
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.sources.config import Config
+from evmap.sources.geometry import point_segment_distances
 from evmap.sources.rcd import TYPE_IV, TYPE_NAMES
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["add_unidentified"]
+__all__ = ["BELIEVED", "add_unidentified"]
+
+BELIEVED = 0.5
+"""A map line with Bel(real) at least this explains the echoes on it (``unidentified.explained_distance``)."""
 
 
 def add_unidentified(
@@ -38,12 +48,14 @@ def add_unidentified(
     g = bm.graph
     keep = unmatched[actual.type[unmatched] != TYPE_IV]
     keep = keep[np.argsort(actual.type[keep], kind="stable")]  # the strongest evidence first
+    targets = pose[:2] + actual.range[keep, None] * _unit(actual.direction[keep])
+    if config.unidentified.explained_distance > 0 and len(keep):  # the map's own echoes are no objects
+        keep, targets = _unexplained(bm, check, pose, keep, config.unidentified.explained_distance)
     stage = config.stage_sources("unidentified")
     rows = [source.masses({"rcd_type": np.array([TYPE_NAMES[t] for t in actual.type[keep]])}) for source in stage]
     radius = config.unidentified.merge_radius
     done: list[str] = []
-    for j, k in enumerate(keep):
-        xy = pose[:2] + actual.range[k] * np.array([np.cos(actual.direction[k]), np.sin(actual.direction[k])])
+    for j, (k, xy) in enumerate(zip(keep, targets, strict=True)):
         around = [
             n for n in bm.near((*(xy - radius), *(xy + radius)), "points") if g.nodes[n]["kind"] == "unidentified"
         ]
@@ -73,3 +85,34 @@ def add_unidentified(
             bm.fold(node, mass, record)
         done.append(node)
     return done
+
+
+ARC_SAMPLES = 9
+"""Points along an RCD's arc checked against the map's lines."""
+
+
+def _unexplained(
+    bm: BeliefMap, check: SonarCheck, pose: NDArray[np.float64], keep: NDArray[np.intp], distance: float
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """The RCDs of ``keep`` whose arc the map's believed lines do not explain, each with its object's place.
+
+    The place is the arc point the lines leave unexplained nearest the RCD's direction.
+    """
+    actual, s = check.actual, check.surfaces
+    believed = np.array([bm.mass(line).belief("real") >= BELIEVED for line in s.segment_ids], dtype=bool)
+    steps = np.linspace(-0.5, 0.5, ARC_SAMPLES)
+    angles = actual.direction[keep, None] + actual.width[keep, None] * steps  # (R, ARC_SAMPLES)
+    arc = pose[:2] + actual.range[keep, None, None] * _unit(angles)
+    if not believed.any():
+        free = np.ones(angles.shape, dtype=bool)
+    else:
+        p, q = s.p[believed], s.q[believed]
+        free = point_segment_distances(arc[..., None, :], p, q).min(axis=-1) > distance
+    best = np.argmin(np.where(free, np.abs(steps), np.inf), axis=1)
+    ok = free.any(axis=1)
+    return keep[ok], arc[np.flatnonzero(ok), best[ok]]
+
+
+def _unit(angle: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Unit vectors (..., 2) at ``angle``."""
+    return np.stack([np.cos(angle), np.sin(angle)], axis=-1)

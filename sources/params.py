@@ -118,3 +118,10 @@ class UnidentifiedParams(_Params):
     occlusion_margin: float = Field(
         0.1, ge=0, description="a map line this much nearer than an RCD's range hides its target (m)"
     )
+    explained_distance: float = Field(
+        0.0,
+        ge=0,
+        le=1,
+        description="an unmatched RCD whose target lies this close to a map line is that line's echo, not an "
+        "object (m); 0, the paper's method: every unmatched RCD in sight is an object",
+    )

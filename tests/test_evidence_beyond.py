@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -16,7 +18,7 @@ from evmap.sources.loading import InputError
 from evmap.sources.params import LslParams, SonarParams
 from evmap.sources.readings import SonarScan
 from evmap.sources.sim.lsl import observe_stripe
-from evmap.sources.sim.scenario import LslSensor, Sensors, default_scenario, parse_scenario
+from evmap.sources.sim.scenario import LslSensor, Sensors, default_scenario, load_scenario, parse_scenario
 from evmap.sources.sim.world import World
 
 DEFAULT = "configs/default.yaml"
@@ -144,3 +146,33 @@ def test_column_max_scenario_sensors_round_trip() -> None:
     scenario = default_scenario().model_copy(update={"sensors": Sensors(lsl=LslSensor(detector="column_max"))})
     segs, _ = observe_stripe(World(scenario), 0, LslParams())
     assert (segs.truth == "noise").sum() == 28
+
+
+def test_unidentified_objects_sit_where_the_map_explains_nothing() -> None:
+    """Default config: an object lies on the part of its RCD's arc away from the believed lines (single pose:
+    the stage comes last, so the final lines are those it saw); the corridor's window is still explained;
+    the paper's config places every unmatched RCD at its direction, as the paper does."""
+    from evmap.maps.app.compare_metrics import GLASS_RADIUS, fuse_rules, visible_glass
+    from evmap.sources.config import config_from_data
+    from evmap.sources.geometry import point_segment_distances
+
+    on = load_config("default")
+    assert on.unidentified.explained_distance == 0.15 and load_config("paper").unidentified.explained_distance == 0
+    data = on.to_data()
+    data["unidentified"]["explained_distance"] = 0.0
+    off = config_from_data(data, "off")
+    beside = load_scenario(str(Path(__file__).parent / "scenarios" / "arc_beside_a_line.yaml"))
+    for scenario, moved in ((default_scenario(), False), (beside, True)):
+        every = fuse_rules(scenario, off, ["dempster"])["dempster"].map
+        run = fuse_rules(scenario, on, ["dempster"])["dempster"]
+        objects = np.array([u.xy for u in run.map.unidentified()])
+        assert ({u.xy for u in every.unidentified()} != {tuple(xy) for xy in objects}) == moved
+        lines = run.map.lines(min_belief=0.5)
+        p, q = np.array([ln.p for ln in lines]), np.array([ln.q for ln in lines])
+        assert (point_segment_distances(objects[:, None, :], p[None], q[None]).min(axis=1) > 0.15).all()
+    run = fuse_rules(default_scenario(), on, ["dempster"])["dempster"]
+    objects = np.array([u.xy for u in run.map.unidentified()])
+    s = run.world.surfaces()
+    glass = visible_glass(run.world, on)
+    near_glass = point_segment_distances(objects[:, None, :], s.p[glass][None], s.q[glass][None]) <= GLASS_RADIUS
+    assert len(glass) and near_glass.any(axis=0).all()
