@@ -8,8 +8,9 @@ import shapely
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
+from evmap.sources.geometry import cast_rays
 from evmap.sources.sim.scenario import Scenario, load_scenario
-from evmap.sources.sim.world import World, cast_rays, visible, wall_id
+from evmap.sources.sim.world import World, visible, wall_id
 
 HERE = Path(__file__).parent / "scenarios"
 
