@@ -56,16 +56,16 @@ def crossings(
     >>> t.tolist(), s.tolist()
     ([0.5, nan], [0.25, nan])
     """
-    a, u, p, v = (np.asarray(x, dtype=float) for x in (a, u, p, v))
-    w = p - a
-    den = _det(u, v)
+    u, v = np.asarray(u, dtype=float), np.asarray(v, dtype=float)
+    w = np.asarray(p, dtype=float) - np.asarray(a, dtype=float)
+    ux, uy, vx, vy, wx, wy = u[..., 0], u[..., 1], v[..., 0], v[..., 1], w[..., 0], w[..., 1]
+    den = ux * vy - uy * vx
     if parallel > 0:
-        scale = np.hypot(u[..., 0], u[..., 1]) * np.hypot(v[..., 0], v[..., 1])
-        den = np.where(np.abs(den) > parallel * scale, den, np.nan)
+        den = np.where(np.abs(den) > parallel * (np.hypot(ux, uy) * np.hypot(vx, vy)), den, np.nan)
     else:
         den = np.where(den != 0, den, np.nan)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        return _det(w, v) / den, _det(w, u) / den
+        return (wx * vy - wy * vx) / den, (wx * uy - wy * ux) / den
 
 
 def perpendicular_feet(xy: ArrayLike, p: ArrayLike, q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -133,8 +133,10 @@ def ray_circle_distances(
     [[2.0, inf], [inf, inf]]
     """
     u = np.asarray(directions, dtype=float).reshape(-1, 2)
-    c = np.asarray(centers, dtype=float).reshape(-1, 2) - np.asarray(origin, dtype=float)
     r = np.asarray(radii, dtype=float).reshape(-1)
+    if not len(r):
+        return np.empty((len(u), 0))
+    c = np.asarray(centers, dtype=float).reshape(-1, 2) - np.asarray(origin, dtype=float)
     b = u[:, 0:1] * c[:, 0] + u[:, 1:2] * c[:, 1]  # (R, K)
     disc = b**2 - ((c**2).sum(axis=1) - r**2)
     with np.errstate(invalid="ignore"):
@@ -174,7 +176,8 @@ def cast_rays(
     """
     o = np.asarray(origin, dtype=float)
     angles = np.asarray(angles, dtype=float)
-    u = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+    u = np.empty((len(angles), 2))  # the rays' unit directions
+    u[:, 0], u[:, 1] = np.cos(angles), np.sin(angles)
     p, q = np.asarray(p, dtype=float).reshape(-1, 2), np.asarray(q, dtype=float).reshape(-1, 2)
     t, s = crossings(o, u[:, None], p, q - p)  # (R, N)
     t_segments = np.where((t > 0) & (s >= 0) & (s <= 1), t, np.inf)
