@@ -19,11 +19,11 @@ from numpy.typing import NDArray
 
 from evmap.maps.matching import match_rcds
 from evmap.sources.config import Config
+from evmap.sources.geometry import cast_rays
 from evmap.sources.rcd import Rcds, extract_rcds
 from evmap.sources.readings import SonarScan
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.surfaces import Surfaces
-from evmap.sources.sim.world import cast_rays
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap

@@ -5,7 +5,8 @@ into their mass functions over the source's frame: a batch, an ``(N, 2**n)``
 float array whose column ``b`` is the focal set with bitmask ``b`` (column 0 is
 the empty set), ready for :func:`evidential.combine_batch`.
 
-Sources are built from YAML (see :mod:`evmap.sources.config`). Each *kind* of source is
+Sources are built from YAML (see :mod:`evmap.sources.config`); the protocol and the
+data of a source and of a kind are in :mod:`evmap.sources.source_spec`. Each *kind* of source is
 registered by name with :func:`register_kind`: a pydantic model of its YAML
 section, a builder that binds a plain array function to its validated tables
 (``functools.partial``), and an example section. Registration builds the example
@@ -32,16 +33,29 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from functools import partial
-from typing import Annotated, Any, Literal, Protocol, TypeVar, runtime_checkable
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from pydantic import BaseModel, ConfigDict, Field, Strict, StringConstraints
+from pydantic import Field, Strict, StringConstraints
 
 from evidential import Frame
 from evmap.sources.conformance import MASS_TOLERANCE, check_source
+from evmap.sources.source_spec import (
+    EXAMPLE_FRAME,
+    BoundSource,
+    Builder,
+    EvidenceSource,
+    FocalResolver,
+    Name,
+    SourceKind,
+    SourceSpec,
+    Spec,
+    SpecError,
+    Text,
+    example_focal,
+)
 
 __all__ = [
     "EXAMPLE_FRAME",
@@ -53,6 +67,7 @@ __all__ = [
     "BoundSource",
     "EvidenceSource",
     "FocalResolver",
+    "Name",
     "RampSpec",
     "SourceKind",
     "SourceSpec",
@@ -72,15 +87,6 @@ MAX_BREAK_POINTS = 1000
 """Most break points in one ramp source."""
 MAX_TABLE_CELLS = 1 << 16
 """Most dense cells (categories times ``2**n``) in one table source."""
-EXAMPLE_FRAME = Frame(["real", "noise"])
-"""The frame a kind's example section is built on at registration (``unknown`` is ``real|noise``)."""
-
-FocalResolver = Callable[[str], int]
-"""Turns a focal set as written in YAML (an element, ``a|b``, an alias, ``""``) into its bitmask."""
-
-Text = Annotated[str, Strict()]
-"""A string: not a number, not binary data (``!!binary``)."""
-Name = Annotated[str, Strict(), StringConstraints(pattern=r"^[A-Za-z][A-Za-z0-9_-]{0,63}$")]
 Category = Annotated[str, Strict(), StringConstraints(pattern=r"^[^\x00-\x1f]{1,100}$")]
 Mass = Annotated[float, Field(strict=True, allow_inf_nan=False)]
 
@@ -88,113 +94,6 @@ Mass = Annotated[float, Field(strict=True, allow_inf_nan=False)]
 def _width(frame: Frame) -> int:
     """Number of focal sets (columns of a dense batch) of a frame: ``2**n``."""
     return 1 << len(frame)
-
-
-@runtime_checkable
-class EvidenceSource(Protocol):
-    """What the pipeline needs of an evidence source.
-
-    ``name`` names it in the config; ``frame`` is the frame of its masses;
-    ``feature`` is the key it reads in the features given to :meth:`masses`.
-    """
-
-    name: str
-    frame: Frame
-    feature: str
-
-    def masses(self, features: Mapping[str, ArrayLike]) -> NDArray[np.float64]:
-        """Mass functions of N objects, an ``(N, 2**n)`` array, from their features (arrays of N)."""
-        ...
-
-
-class SpecError(ValueError):
-    """A source's YAML section is wrong; ``at`` is the key path inside the section."""
-
-    def __init__(self, at: tuple[str | int, ...], problem: str) -> None:
-        super().__init__(problem)
-        self.at = at
-        self.problem = problem
-
-
-@dataclass(frozen=True, eq=False)
-class BoundSource:
-    """An evidence source: a plain array function bound to its validated tables.
-
-    Attributes
-    ----------
-    name, frame, feature : as in :class:`EvidenceSource`.
-    kind : the registered kind it was built by (``table``, ``ramp``).
-    function : maps the feature's array of N values to the ``(N, 2**n)`` masses.
-    examples : feature values that show what the source does (the categories of
-        a table; the break points of a ramp and the midpoints between them), for
-        ``evmap config check`` and ``evmap config explain``.
-    summary : one line saying what the source computes.
-    """
-
-    name: str
-    frame: Frame
-    feature: str
-    kind: str
-    function: Callable[[ArrayLike], NDArray[np.float64]]
-    examples: tuple[Any, ...]
-    summary: str
-
-    def masses(self, features: Mapping[str, ArrayLike]) -> NDArray[np.float64]:
-        """Mass functions of N objects from ``features[self.feature]`` (an array of N values).
-
-        Raises
-        ------
-        ValueError
-            if the feature is missing or holds a value the source cannot judge.
-        """
-        if self.feature not in features:
-            raise ValueError(
-                f"source {self.name!r} reads feature {self.feature!r}, "
-                f"which is not among the features given: {sorted(features)}"
-            )
-        try:
-            return self.function(features[self.feature])
-        except ValueError as exc:
-            raise ValueError(f"source {self.name!r}, feature {self.feature!r}: {exc}") from None
-
-
-class SourceSpec(BaseModel):
-    """The YAML keys every source has: its kind, the frame it speaks of, the feature it reads."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    kind: Text
-    frame: Name = Field(description="name of a frame declared under `frames`")
-    feature: Name = Field(description="the feature of the objects that the source reads")
-    description: Text = Field("", max_length=2000, description="free text, shown by `evmap config check`")
-
-
-Spec = TypeVar("Spec", bound=SourceSpec)
-Builder = Callable[[str, Spec, Frame, FocalResolver], EvidenceSource]
-
-
-@dataclass(frozen=True)
-class SourceKind:
-    """A kind of source: the model of its YAML section, its builder, and an example section.
-
-    ``example`` is a valid section on the frame :data:`EXAMPLE_FRAME` named ``existence``
-    (without ``kind``), built and checked at registration (``None``: the kind's sources are
-    checked only when a config builds them); ``origin`` says where the kind comes from
-    (``builtin``, or a plugin's entry point).
-    """
-
-    name: str
-    spec: type[SourceSpec]
-    build: Builder[Any]
-    example: Mapping[str, Any] | None = None
-    origin: str = "builtin"
-
-    def build_example(self) -> EvidenceSource:
-        """The source of the example section, on :data:`EXAMPLE_FRAME`."""
-        if self.example is None:
-            raise ValueError(f"source kind {self.name!r} has no example section")
-        spec = self.spec.model_validate({"kind": self.name, **self.example})
-        return self.build(f"{self.name}_example", spec, EXAMPLE_FRAME, example_focal)
 
 
 KINDS: dict[str, SourceKind] = {}
@@ -249,11 +148,6 @@ def register_kind(
         return build
 
     return decorate
-
-
-def example_focal(written: str) -> int:
-    """The focal-set resolver of :data:`EXAMPLE_FRAME`: elements, ``a|b``, ``unknown``, ``""``."""
-    return EXAMPLE_FRAME.mask({"unknown": "real|noise"}.get(written, written))
 
 
 def mass_row(

@@ -1,7 +1,9 @@
-"""Plane geometry over arrays of points and segments: distances and crossings.
+"""Plane geometry over arrays of points, segments, rays and circles: distances, crossings, ray casts.
 
 Every function takes numpy arrays whose last axis is (x, y) and broadcasts over
-the others; a segment ``p``-``q`` with ``p == q`` is a point.
+the others; a segment ``p``-``q`` with ``p == q`` is a point. Both the simulator
+(``evmap.sources.sim``) and the evidence side use these, so that each formula is
+written once.
 """
 
 from __future__ import annotations
@@ -9,7 +11,25 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["cross", "point_segment_distances", "segment_distances"]
+__all__ = [
+    "cast_rays",
+    "cross",
+    "crossings",
+    "perpendicular_feet",
+    "point_segment_distances",
+    "ray_circle_distances",
+    "segment_distances",
+]
+
+
+def _det(u: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The z component of u x v."""
+    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+
+def _dot(u: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """u . v over the last axis."""
+    return u[..., 0] * v[..., 0] + u[..., 1] * v[..., 1]
 
 
 def cross(o: ArrayLike, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
@@ -19,7 +39,55 @@ def cross(o: ArrayLike, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
     1.0
     """
     o, u, v = np.asarray(o, dtype=float), np.asarray(u, dtype=float), np.asarray(v, dtype=float)
-    return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
+    return _det(u - o, v - o)
+
+
+def crossings(
+    a: ArrayLike, u: ArrayLike, p: ArrayLike, v: ArrayLike, *, parallel: float = 0.0
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Where the lines ``a + t u`` and ``p + s v`` cross: the parameters ``(t, s)``.
+
+    A segment ``a``-``b`` is the line with ``u = b - a`` and ``0 <= t <= 1``; a ray
+    from ``a`` along a unit ``u`` has ``t`` its distance. Where the lines are
+    parallel, ``|u x v| <= parallel * |u| |v|`` (by default only exactly parallel
+    ones), both parameters are NaN, so every comparison with them is False.
+
+    >>> t, s = crossings([0.0, 0.0], [[2.0, 0.0], [1.0, 0.0]], [1.0, -1.0], [[0.0, 4.0], [2.0, 0.0]])
+    >>> t.tolist(), s.tolist()
+    ([0.5, nan], [0.25, nan])
+    """
+    u, v = np.asarray(u, dtype=float), np.asarray(v, dtype=float)
+    w = np.asarray(p, dtype=float) - np.asarray(a, dtype=float)
+    ux, uy, vx, vy, wx, wy = u[..., 0], u[..., 1], v[..., 0], v[..., 1], w[..., 0], w[..., 1]
+    den = ux * vy - uy * vx
+    if parallel > 0:
+        den = np.where(np.abs(den) > parallel * (np.hypot(ux, uy) * np.hypot(vx, vy)), den, np.nan)
+    else:
+        den = np.where(den != 0, den, np.nan)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        return (wx * vy - wy * vx) / den, (wx * uy - wy * ux) / den
+
+
+def perpendicular_feet(xy: ArrayLike, p: ArrayLike, q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Feet of the perpendiculars from points ``xy`` on the lines through ``p`` and ``q``.
+
+    Returns the parameter ``t`` of each foot (``p + t (q - p)``; 0 where ``p == q``),
+    not clipped to the segment, and the foot itself.
+
+    >>> t, foot = perpendicular_feet([[1.0, 1.0], [4.0, 2.0]], [0.0, 0.0], [2.0, 0.0])
+    >>> t.tolist(), foot.tolist()
+    ([0.5, 2.0], [[1.0, 0.0], [4.0, 0.0]])
+    """
+    xy, p, q = np.asarray(xy, dtype=float), np.asarray(p, dtype=float), np.asarray(q, dtype=float)
+    d = q - p
+    t = _parameters(xy, p, d)
+    return t, p + t[..., None] * d
+
+
+def _parameters(xy: NDArray[np.float64], p: NDArray[np.float64], d: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Parameters of the feet of the perpendiculars from ``xy`` on the lines ``p + t d``; 0 where ``d == 0``."""
+    length2 = _dot(d, d)
+    return _dot(xy - p, d) / np.where(length2 > 0, length2, 1.0)
 
 
 def point_segment_distances(xy: ArrayLike, p: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
@@ -30,8 +98,7 @@ def point_segment_distances(xy: ArrayLike, p: ArrayLike, q: ArrayLike) -> NDArra
     """
     xy, p, q = np.asarray(xy, dtype=float), np.asarray(p, dtype=float), np.asarray(q, dtype=float)
     d = q - p
-    length2 = (d * d).sum(axis=-1)
-    t = np.clip(((xy - p) * d).sum(axis=-1) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
+    t = np.clip(_parameters(xy, p, d), 0.0, 1.0)
     gap = p + t[..., None] * d - xy
     return np.hypot(gap[..., 0], gap[..., 1])
 
@@ -52,3 +119,72 @@ def segment_distances(a: ArrayLike, b: ArrayLike, p: ArrayLike, q: ArrayLike) ->
         np.minimum(point_segment_distances(p, a, b), point_segment_distances(q, a, b)),
     )
     return np.where(crossing, 0.0, ends)
+
+
+def ray_circle_distances(
+    origin: ArrayLike, directions: ArrayLike, centers: ArrayLike, radii: ArrayLike
+) -> NDArray[np.float64]:
+    """(R, K) distance from ``origin`` along each unit direction (R, 2) to the near side of each circle (K).
+
+    ``inf`` where the ray misses the circle or the circle is behind; the origin
+    must be outside every circle.
+
+    >>> ray_circle_distances([0.0, 0.0], [[1.0, 0.0], [-1.0, 0.0]], [[3.0, 0.0], [0.0, 3.0]], [1.0, 1.0]).tolist()
+    [[2.0, inf], [inf, inf]]
+    """
+    u = np.asarray(directions, dtype=float).reshape(-1, 2)
+    r = np.asarray(radii, dtype=float).reshape(-1)
+    if not len(r):
+        return np.empty((len(u), 0))
+    c = np.asarray(centers, dtype=float).reshape(-1, 2) - np.asarray(origin, dtype=float)
+    b = u[:, 0:1] * c[:, 0] + u[:, 1:2] * c[:, 1]  # (R, K)
+    disc = b**2 - ((c**2).sum(axis=1) - r**2)
+    with np.errstate(invalid="ignore"):
+        near = b - np.sqrt(disc)
+    return np.where((disc >= 0) & (near > 0), near, np.inf)
+
+
+def cast_rays(
+    origin: ArrayLike,
+    angles: ArrayLike,
+    p: ArrayLike,
+    q: ArrayLike,
+    centers: ArrayLike,
+    radii: ArrayLike,
+    max_range: float,
+) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """Nearest hit of each ray from ``origin`` among segments ``p``-``q`` and circles.
+
+    Parameters
+    ----------
+    origin : (2,) ray origin.
+    angles : (R,) ray directions (radians, counter-clockwise from +x).
+    p, q : (N, 2) segment ends. centers : (K, 2), radii : (K,) circles.
+    max_range : hits further than this are no hits.
+
+    Returns
+    -------
+    ranges : (R,) distance to the nearest hit, ``inf`` where none.
+    hit : (R,) index of what was hit: ``0..N-1`` a segment, ``N..N+K-1`` a circle, -1 none.
+
+    Rays grazing a segment along its own line do not hit it; a circle is hit on its
+    near side (the origin must be outside every circle).
+
+    >>> ranges, hit = cast_rays([0, 0], [0, np.pi / 2, np.pi], [[2, -1]], [[2, 1]], [[0, 3]], [0.5], 10)
+    >>> ranges.tolist(), hit.tolist()
+    ([2.0, 2.5, inf], [0, 1, -1])
+    """
+    o = np.asarray(origin, dtype=float)
+    angles = np.asarray(angles, dtype=float)
+    u = np.empty((len(angles), 2))  # the rays' unit directions
+    u[:, 0], u[:, 1] = np.cos(angles), np.sin(angles)
+    p, q = np.asarray(p, dtype=float).reshape(-1, 2), np.asarray(q, dtype=float).reshape(-1, 2)
+    t, s = crossings(o, u[:, None], p, q - p)  # (R, N)
+    t_segments = np.where((t > 0) & (s >= 0) & (s <= 1), t, np.inf)
+    t_all = np.concatenate([t_segments, ray_circle_distances(o, u, centers, radii)], axis=1)
+    if t_all.shape[1] == 0:
+        return np.full(len(angles), np.inf), np.full(len(angles), -1, dtype=np.intp)
+    hit = np.argmin(t_all, axis=1)
+    ranges = t_all[np.arange(len(angles)), hit]
+    found = ranges <= max_range
+    return np.where(found, ranges, np.inf), np.where(found, hit, -1).astype(np.intp)

@@ -19,6 +19,7 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
+from evmap.sources.geometry import crossings, perpendicular_feet
 from evmap.sources.params import NoiseParams
 
 __all__ = ["RELATIONS", "inside_fraction", "relation"]
@@ -67,19 +68,12 @@ def inside_fraction(p: ArrayLike, q: ArrayLike, open_space: shapely.Geometry) ->
     tree = shapely.STRtree(shapely.linestrings(np.stack([a, b], axis=1)))
     seg, edge = tree.query(shapely.linestrings(np.stack([p, q], axis=1)))  # pairs whose boxes meet
     d = q - p
-    e = b[edge] - a[edge]
-    ap = a[edge] - p[seg]
-    # p + t d = a + s e: t = (ap x e) / (d x e), s = (ap x d) / (d x e)
-    cross_de = d[seg, 0] * e[:, 1] - d[seg, 1] * e[:, 0]
-    parallel = cross_de == 0
-    denominator = np.where(parallel, 1.0, cross_de)
-    t = (ap[:, 0] * e[:, 1] - ap[:, 1] * e[:, 0]) / denominator
-    s = (ap[:, 0] * d[seg, 1] - ap[:, 1] * d[seg, 0]) / denominator
-    hit = ~parallel & (s >= 0) & (s <= 1) & (t > 0) & (t < 1)
+    t, s = crossings(p[seg], d[seg], a[edge], b[edge] - a[edge])  # p + t d = a + s (b - a)
+    parallel = np.isnan(t)
+    hit = (s >= 0) & (s <= 1) & (t > 0) & (t < 1)
     # an edge parallel to the segment (maybe along it) cuts it where the edge's ends project
-    dd = np.maximum(np.einsum("ij,ij->i", d, d), np.finfo(float).tiny)[seg[parallel]]
-    t_a = np.einsum("ij,ij->i", ap[parallel], d[seg[parallel]]) / dd
-    t_b = np.einsum("ij,ij->i", (b[edge] - p[seg])[parallel], d[seg[parallel]]) / dd
+    t_a, _ = perpendicular_feet(a[edge[parallel]], p[seg[parallel]], q[seg[parallel]])
+    t_b, _ = perpendicular_feet(b[edge[parallel]], p[seg[parallel]], q[seg[parallel]])
     n = len(p)
     owner = np.concatenate([np.arange(n), np.arange(n), seg[hit], seg[parallel], seg[parallel]])
     cut = np.clip(np.concatenate([np.zeros(n), np.ones(n), t[hit], t_a, t_b]), 0.0, 1.0)

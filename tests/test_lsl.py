@@ -8,12 +8,13 @@ import shapely
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from evmap.sources.geometry import cast_rays
 from evmap.sources.params import LslParams, SonarParams
 from evmap.sources.polyline import fit_polylines
 from evmap.sources.readings import LslSegments, concat_segments
 from evmap.sources.sim.lsl import LSL_NOISE_STREAM, lsl_segments, observe_lsl, observe_lsl_all, stripe_scan
 from evmap.sources.sim.scenario import Robot, Scenario, load_scenario
-from evmap.sources.sim.world import World, cast_rays, visible, wall_id
+from evmap.sources.sim.world import World, visible, wall_id
 
 HERE = Path(__file__).parent / "scenarios"
 NOISE_FREE = LslParams(range_noise=0)

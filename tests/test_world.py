@@ -1,15 +1,13 @@
-"""The world built from a scenario: vertices, ids, material flags, poses, ray geometry."""
+"""The world built from a scenario: vertices, ids, material flags, poses, what hides what."""
 
 from pathlib import Path
 
 import numpy as np
 import pytest
-import shapely
-from hypothesis import assume, given
-from hypothesis import strategies as st
 
+from evmap.sources.geometry import cast_rays
 from evmap.sources.sim.scenario import Scenario, load_scenario
-from evmap.sources.sim.world import World, cast_rays, visible, wall_id
+from evmap.sources.sim.world import World, visible, wall_id
 
 HERE = Path(__file__).parent / "scenarios"
 
@@ -98,39 +96,6 @@ def test_empty_world() -> None:
     ranges, hit = cast_rays([0, 0], [0, 1], s.p, s.q, s.cylinder_centers, s.cylinder_radii, 5)
     assert np.isinf(ranges).all() and (hit == -1).all()
     assert visible(s, [0, 0], [[1, 1]]).tolist() == [True]
-
-
-def test_cast_rays_known_answers() -> None:
-    p, q = [[1, -1], [2, -1], [-1, 1]], [[1, 1], [2, 1], [1, 1]]
-    angles = [0, np.pi / 4, np.pi / 2, np.pi, -np.pi / 4, 0.0]
-    ranges, hit = cast_rays([0, 0], angles, p, q, [[-3, 0]], [1.0], 10)
-    np.testing.assert_allclose(ranges, [1, np.sqrt(2), 1, 2, np.sqrt(2), 1])
-    assert hit.tolist() == [0, 0, 2, 3, 0, 0]  # nearest wins; a ray through an end point hits
-    ranges, hit = cast_rays([0, 0], [0], p, q, [[-3, 0]], [1.0], 0.5)
-    assert np.isinf(ranges).all() and hit.tolist() == [-1]
-
-
-@given(
-    seg=st.lists(st.floats(-5, 5), min_size=4, max_size=4),
-    angle=st.floats(-np.pi, np.pi),
-    origin=st.lists(st.floats(-5, 5), min_size=2, max_size=2),
-)
-def test_cast_rays_agrees_with_shapely(seg: list[float], angle: float, origin: list[float]) -> None:
-    a, b = np.array(seg[:2]), np.array(seg[2:])
-    assume(np.hypot(*(b - a)) > 1e-3)
-    o = np.array(origin)
-    ray = shapely.LineString([o, o + 100 * np.array([np.cos(angle), np.sin(angle)])])
-    cross = ray.intersection(shapely.LineString([a, b]))
-    assume(cross.geom_type in ("Point", "Empty") or cross.is_empty)  # not collinear
-    # a ray through an end point (within rounding) may hit or miss
-    assume(min(ray.distance(shapely.Point(a)), ray.distance(shapely.Point(b))) > 1e-9)
-    ranges, hit = cast_rays(o, [angle], [a], [b], np.zeros((0, 2)), [], 100)
-    if cross.is_empty:
-        assert hit[0] == -1
-    else:
-        assume(cross.distance(shapely.Point(o)) > 1e-9)
-        assert hit[0] == 0
-        assert ranges[0] == pytest.approx(cross.distance(shapely.Point(o)), abs=1e-7)
 
 
 def test_visible(room: World) -> None:

@@ -21,8 +21,8 @@ from numpy.typing import NDArray
 from evmap.maps.belief_map import BeliefMap
 from evmap.maps.occupancy import FREE_MAX, occupancy_from_masses, occupancy_masses
 from evmap.sources.config import Config
-from evmap.sources.geometry import point_segment_distances
-from evmap.sources.sim.world import World, cast_rays, visible
+from evmap.sources.geometry import cast_rays, point_segment_distances
+from evmap.sources.sim.world import World, visible
 
 __all__ = [
     "GRID_RESOLUTION",

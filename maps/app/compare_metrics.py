@@ -42,9 +42,10 @@ from evmap.maps.app.run import Run
 from evmap.maps.observation import observe
 from evmap.maps.pipeline import fold_observation
 from evmap.sources.config import Config
+from evmap.sources.geometry import cast_rays, perpendicular_feet, point_segment_distances
 from evmap.sources.sim.scenario import Scenario
 from evmap.sources.sim.surfaces import Surfaces
-from evmap.sources.sim.world import World, cast_rays
+from evmap.sources.sim.world import World
 
 __all__ = [
     "BELIEF_BINS",
@@ -173,7 +174,7 @@ def world_metrics(run: Run, glass: NDArray[np.intp] | None = None) -> dict[str, 
     unidentified = np.array([u.xy for u in run.map.unidentified()], dtype=float).reshape(-1, 2)
     explained = None
     if len(glass):
-        d = _segment_distance(unidentified, surfaces.p[glass], surfaces.q[glass])  # (U, G)
+        d = point_segment_distances(unidentified[:, None], surfaces.p[glass], surfaces.q[glass])  # (U, G)
         explained = float((d <= GLASS_RADIUS).any(axis=0).mean()) if len(unidentified) else 0.0
     spurious, objects = spurious_unidentified(run.map, run.world)
     behind, free = free_behind_walls(run.map, run.world)
@@ -218,11 +219,9 @@ def visible_glass(world: World, config: Config) -> NDArray[np.intp]:
     if not len(candidates):
         return candidates
     p, q = s.p[candidates], s.q[candidates]
-    d = q - p
     seen = np.zeros(len(candidates), dtype=bool)
     for x, y, _ in world.poses:
-        t = ((x - p[:, 0]) * d[:, 0] + (y - p[:, 1]) * d[:, 1]) / (d**2).sum(axis=1)
-        foot = p + t[:, None] * d
+        t, foot = perpendicular_feet([x, y], p, q)
         dist = np.hypot(foot[:, 0] - x, foot[:, 1] - y)
         ok = (t > 0) & (t < 1) & (dist > 0) & (dist <= sonar.max_range)
         if not ok.any():
@@ -253,7 +252,7 @@ def map_error(p: Sequence[Any], q: Sequence[Any], surfaces: Surfaces) -> float |
     points = p[line] + t[:, None] * (q - p)[line]
     d = np.full(len(points), np.inf)
     if len(surfaces.segments):
-        d = _segment_distance(points, surfaces.p, surfaces.q).min(axis=1)
+        d = point_segment_distances(points[:, None], surfaces.p, surfaces.q).min(axis=1)
     if len(surfaces.cylinder_radii):
         to_center = np.hypot(*(points[:, None, :] - surfaces.cylinder_centers[None]).transpose(2, 0, 1))
         d = np.minimum(d, np.abs(to_center - surfaces.cylinder_radii).min(axis=1))
@@ -281,17 +280,6 @@ def belief_histograms(run: Run) -> NDArray[np.int64]:
     """(2, len(BELIEF_BINS) - 1) segment counts per bin of :func:`line_beliefs`: real segments, then noise ones."""
     belief, truth = line_beliefs(run)
     return np.stack([np.histogram(belief[truth == t], BELIEF_BINS)[0] for t in TRUTHS])
-
-
-def _segment_distance(
-    points: NDArray[np.float64], p: NDArray[np.float64], q: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """(M, N) distance from each point to each segment p-q."""
-    d = q - p
-    w = points[:, None, :] - p[None, :, :]
-    length2 = np.maximum((d**2).sum(axis=1), np.finfo(float).tiny)
-    t = np.clip((w * d[None]).sum(axis=2) / length2, 0.0, 1.0)
-    return np.hypot(*(w - t[..., None] * d[None]).transpose(2, 0, 1))
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,9 @@ Rules
   :class:`OutputError` (a ``ValueError``: ``evmap: error: ...``, exit 2) before the work.
 - Files and directories get ordinary permissions (the umask's), also those
   made by ``mkdtemp``/``mkstemp`` (0700/0600).
+
+The data (marker, layouts, :class:`Staging`, :class:`OutputError`) are in
+:mod:`evmap.maps.app.output_layout`, the lock in :mod:`evmap.maps.app.output_lock`.
 """
 
 from __future__ import annotations
@@ -34,14 +37,23 @@ import fnmatch
 import glob
 import json
 import os
-import secrets
 import shutil
 import sys
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 from pathlib import Path
+
+from evmap.maps.app.output_layout import (
+    COMPARE_LAYOUT,
+    MARKER,
+    MIN_FREE_BYTES,
+    RUN_LAYOUT,
+    Layout,
+    OutputError,
+    Staging,
+)
+from evmap.maps.app.output_lock import lock_output, process_alive
 
 __all__ = [
     "COMPARE_LAYOUT",
@@ -55,51 +67,6 @@ __all__ = [
     "owned_entries",
     "write_text_atomic",
 ]
-
-MARKER = ".evmap-out"
-"""The file evmap puts into every output directory it makes: JSON ``{"command": ..., "files": [...]}``."""
-
-MIN_FREE_BYTES = 16 * 2**20
-"""Free space ``--out``'s file system needs before a run starts (more when the command says so)."""
-
-
-class OutputError(ValueError):
-    """``--out`` cannot receive the run; the message names the directory and what is wrong."""
-
-
-@dataclass(frozen=True)
-class Layout:
-    """What a command wrote into its output directory before evmap marked them (``docs/SCENARIO.md``).
-
-    Attributes
-    ----------
-    command : the ``evmap`` subcommand.
-    required : files every such directory has.
-    patterns : ``fnmatch`` patterns of the other files at its top level.
-    subdirs : a sub-directory name -> the pattern of the files it holds.
-    """
-
-    command: str
-    required: tuple[str, ...]
-    patterns: tuple[str, ...] = ()
-    subdirs: dict[str, str] = field(default_factory=dict)
-
-
-RUN_LAYOUT = Layout(
-    "run", ("report.json", "segments.json", "map.json"), ("*.png", "*.svg", "*.pdf", "map.pgm", "map.yaml")
-)
-"""``evmap run``'s and ``evmap log``'s artefacts: the files, the figures in any format, a log's ROS map pair."""
-
-COMPARE_LAYOUT = Layout("compare", ("summary.csv", "worlds.csv", "summary.md"), ("*.png",), {"worlds": "*.yaml"})
-"""``evmap compare``'s tables, plots and scenarios."""
-
-
-@dataclass(frozen=True)
-class Staging:
-    """A claimed output: write into ``path``; it becomes ``out`` when the ``with`` block ends."""
-
-    out: Path
-    path: Path
 
 
 def _read_umask() -> int:
@@ -145,7 +112,7 @@ def claim_output(
     except OSError as exc:
         raise OutputError(f"--out {out}: cannot create {parent}: {exc.strerror or exc}") from None
     _check_free(out, free_bytes)
-    lock = _lock(out)
+    lock = lock_output(out)
     try:
         _clean_stale(out)
         _check_target(out, force, layout)  # again, now that no other evmap can change it
@@ -275,66 +242,7 @@ def _check_free(out: Path, free_bytes: int) -> None:
         raise OutputError(f"--out {out}: only {free // 2**20} MiB free on its file system, need {free_bytes // 2**20}")
 
 
-# --------------------------------------------------------------------- claim, clean, commit
-
-
-def _lock(out: Path) -> Path:
-    """Claim ``out`` with ``.NAME.evmap-lock`` beside it, holding this process id; take over a dead process's.
-
-    The lock appears complete or not at all (a hard link of a written file, which
-    fails if the lock exists); a dead process's lock is moved aside and checked
-    again before it is dropped, so two runs never both take it over.
-    """
-    lock = out.parent / f".{out.name}.evmap-lock"
-    mine = out.parent / f".{out.name}.evmap-lock.{os.getpid()}.{secrets.token_hex(4)}"  # one per claim, even in threads
-    try:
-        mine.write_text(f"{os.getpid()}\n")
-    except OSError as exc:
-        raise OutputError(f"--out {out}: cannot write into {out.parent}: {exc.strerror or exc}") from None
-    try:
-        for _ in range(5):
-            try:
-                os.link(mine, lock)
-                return lock
-            except FileExistsError:
-                pass
-            pid = _pid_in(lock)
-            if pid is not None and _alive(pid):
-                raise OutputError(f"--out {out}: another evmap (process {pid}) is writing it")
-            grabbed = out.parent / f".{out.name}.evmap-lock.{os.getpid()}.{secrets.token_hex(4)}.stale"
-            try:
-                os.rename(lock, grabbed)
-            except FileNotFoundError:
-                continue
-            pid = _pid_in(grabbed)
-            if pid is not None and _alive(pid):  # another run took it over just now: give it back
-                try:
-                    os.link(grabbed, lock)
-                except FileExistsError:
-                    pass
-                grabbed.unlink()
-                raise OutputError(f"--out {out}: another evmap (process {pid}) is writing it")
-            grabbed.unlink()
-        raise OutputError(f"--out {out}: another evmap is claiming it")
-    finally:
-        mine.unlink(missing_ok=True)
-
-
-def _pid_in(lock: Path) -> int | None:
-    try:
-        return int(lock.read_text().strip())
-    except (OSError, ValueError):
-        return None
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
+# --------------------------------------------------------------------- clean, commit
 
 
 def _clean_stale(out: Path) -> None:
@@ -342,7 +250,7 @@ def _clean_stale(out: Path) -> None:
     for kind in ("stage", "old"):
         for path in out.parent.glob(f".{glob.escape(out.name)}.evmap-{kind}-*"):
             pid = path.name.removeprefix(f".{out.name}.evmap-{kind}-").split("-")[0]
-            if not pid.isdigit() or _alive(int(pid)) or not path.is_dir() or path.is_symlink():
+            if not pid.isdigit() or process_alive(int(pid)) or not path.is_dir() or path.is_symlink():
                 continue
             if kind == "stage":
                 shutil.rmtree(path, ignore_errors=True)  # wholly evmap's: nobody else writes there
@@ -350,7 +258,7 @@ def _clean_stale(out: Path) -> None:
                 _remove_owned(path, COMPARE_LAYOUT if (path / "summary.csv").exists() else RUN_LAYOUT)
     for path in out.parent.glob(f".{glob.escape(out.name)}.evmap-lock.*"):  # a half-taken lock of a killed run
         pid = path.name.removeprefix(f".{out.name}.evmap-lock.").split(".")[0]
-        if pid.isdigit() and not _alive(int(pid)):
+        if pid.isdigit() and not process_alive(int(pid)):
             path.unlink(missing_ok=True)
 
 

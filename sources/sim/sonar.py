@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from evmap.sources.geometry import crossings, perpendicular_feet, point_segment_distances, ray_circle_distances
 from evmap.sources.params import SonarParams
 from evmap.sources.readings import ScanError, SonarScan
 from evmap.sources.sim.surfaces import Surfaces
@@ -58,6 +59,10 @@ _TOUCH = 1e-9
 
 _FLAT = 1e-6
 """A vertex whose free wedge is within this of 180 deg (rad) is a point on a flat wall: no echo of its own."""
+
+
+_PARALLEL = 1e-12
+"""Lines whose directions' cross product is within this share of their lengths' product are parallel."""
 
 
 _Echoes = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]
@@ -88,11 +93,8 @@ class _Near:
 def _near(surfaces: Surfaces, s: NDArray[np.float64], reach: float) -> tuple[_Near, NDArray[np.str_]]:
     """Select segments, vertices and cylinders within ``reach`` of ``s``; build the label table."""
     p_all, q_all = surfaces.p, surfaces.q
-    d = q_all - p_all
-    length2 = np.einsum("ij,ij->i", d, d)
-    t = np.clip(np.einsum("ij,ij->i", s - p_all, d) / np.maximum(length2, 1e-300), 0, 1)
-    dist = np.hypot(*(p_all + t[:, None] * d - s).T)
-    seg = np.flatnonzero((dist <= reach) & (length2 > 0))  # a zero-length segment is nothing
+    dist = point_segment_distances(s, p_all, q_all)
+    seg = np.flatnonzero((dist <= reach) & (p_all != q_all).any(axis=1))  # a zero-length segment is nothing
     ends = surfaces.segments[seg]
     verts, local = np.unique(ends.ravel(), return_inverse=True)
     local = local.reshape(-1, 2)
@@ -180,33 +182,23 @@ def _vertex_strength(
     return np.where(concave, 1.0, np.where(convex, params.edge_strength, 0.0))
 
 
-def _crossing(
+def _path_crossings(
     a: NDArray[np.float64], b: NDArray[np.float64], p: NDArray[np.float64], q: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Parameters (u along a->b, v along p->q) of the intersection of two lines; NaN if (nearly) parallel.
+    """Parameters (u along a->b, v along p->q) where the path a->b crosses the segment p->q's line.
 
-    A segment seen exactly edge-on (parallel within round-off) neither crosses nor blocks a path.
+    NaN where (nearly) parallel: a segment seen exactly edge-on neither crosses nor blocks a path.
     """
-    ab, pq, ap = b - a, q - p, p - a
-    den = ab[..., 0] * pq[..., 1] - ab[..., 1] * pq[..., 0]
-    scale = np.hypot(ab[..., 0], ab[..., 1]) * np.hypot(pq[..., 0], pq[..., 1])
-    den = np.where(np.abs(den) > 1e-12 * scale, den, np.nan)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        u = (ap[..., 0] * pq[..., 1] - ap[..., 1] * pq[..., 0]) / den
-        v = (ap[..., 0] * ab[..., 1] - ap[..., 1] * ab[..., 0]) / den
-    return u, v
+    return crossings(a, b - a, p, q - p, parallel=_PARALLEL)
 
 
 def _blocked(a: NDArray[np.float64], b: NDArray[np.float64], near: _Near) -> NDArray[np.bool_]:
     """(K,) True where the path a->b (K, 2) is crossed by a segment or a cylinder strictly between its ends."""
-    u, v = _crossing(a[:, None], b[:, None], near.p[None], near.q[None])
+    u, v = _path_crossings(a[:, None], b[:, None], near.p[None], near.q[None])
     hit = np.any((u > _EPS) & (u < 1 - _EPS) & (v >= -_EPS) & (v <= 1 + _EPS), axis=1)
     if len(near.occ_c):
-        ab = b - a
-        ac = near.occ_c[None] - a[:, None]
-        t = np.einsum("kj,kcj->kc", ab, ac) / np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-300)[:, None]
-        off = a[:, None] + t[..., None] * ab[:, None] - near.occ_c[None]
-        d = np.hypot(off[..., 0], off[..., 1])
+        t, foot = perpendicular_feet(near.occ_c[None], a[:, None], b[:, None])  # (K, C): the path's nearest points
+        d = np.hypot(foot[..., 0] - near.occ_c[:, 0], foot[..., 1] - near.occ_c[:, 1])
         hit |= np.any((t > _EPS) & (t < 1 - _EPS) & (d < near.occ_r[None] * (1 - _EPS)), axis=1)
     return hit
 
@@ -219,9 +211,7 @@ def _candidates(near: _Near, src: NDArray[np.float64]) -> tuple[NDArray[np.float
     the label table). Returns points (S, C, 2) and whether each can answer at all
     (a reflective segment whose foot lies on it; a cylinder the source is outside of).
     """
-    d = near.q - near.p
-    t = np.einsum("scj,cj->sc", src[:, None] - near.p[None], d) / np.einsum("cj,cj->c", d, d)
-    foot = near.p[None] + t[..., None] * d[None]
+    t, foot = perpendicular_feet(src[:, None], near.p[None], near.q[None])
     vert = np.broadcast_to(near.v[None], (len(src), len(near.v), 2))
     rel = src[:, None] - near.c[None]
     dist = np.linalg.norm(rel, axis=-1)
@@ -293,13 +283,10 @@ def _visible_segments(near: _Near, s: NDArray[np.float64]) -> NDArray[np.bool_]:
     crit = np.unique(np.mod(np.concatenate(crit), 2 * np.pi))
     mid = (crit + np.append(crit[1:], crit[0] + 2 * np.pi)) / 2
     u = np.stack([np.cos(mid), np.sin(mid)], axis=1)
-    t, v = _crossing(np.broadcast_to(s, (len(u), 2))[:, None], (s + u)[:, None], near.p[None], near.q[None])
+    t, v = crossings(s, u[:, None], near.p, near.q - near.p, parallel=_PARALLEL)
     dist = np.where((t > 0) & (v >= 0) & (v <= 1), t, np.inf)
     if len(near.occ_c):
-        b = u @ (near.occ_c - s).T
-        disc = b**2 - (np.sum((near.occ_c - s) ** 2, axis=1) - near.occ_r**2)[None]
-        with np.errstate(invalid="ignore"):
-            dist = np.concatenate([dist, np.where((disc >= 0) & (b > 0), b - np.sqrt(disc), np.inf)], axis=1)
+        dist = np.concatenate([dist, ray_circle_distances(s, u, near.occ_c, near.occ_r)], axis=1)
     first = np.argmin(dist, axis=1)[np.isfinite(dist.min(axis=1))]
     return np.isin(np.arange(len(near.p)), first)
 
@@ -322,7 +309,7 @@ def _double_echoes(
     mir, pa, qa, normal, h = (x[np.abs(h) > _EPS] for x in (mir, pa, qa, normal, h))
     image = s - 2 * h[:, None] * normal
     point, can = _candidates(near, image)
-    u, v = _crossing(image[:, None], point, pa[:, None], qa[:, None])
+    u, v = _path_crossings(image[:, None], point, pa[:, None], qa[:, None])
     r = np.linalg.norm(point - image[:, None], axis=-1)
     ok = can & (u > _EPS) & (u < 1 - _EPS) & (v >= 0) & (v <= 1) & (r <= min(params.max_range, params.detection_range))
     ia, ic = np.nonzero(ok)

@@ -1,4 +1,4 @@
-"""The simulated world of a scenario, and the ray geometry the sensor models use on it.
+"""The simulated world of a scenario, and what its surfaces hide from a point.
 
 A :class:`World` is a validated :class:`~evmap.sources.sim.scenario.Scenario` resolved into
 arrays: materials looked up, walls joined into :class:`~evmap.sources.sim.surfaces.Surfaces`
@@ -38,10 +38,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from evmap.sources.clusters import close_pairs, component_labels
+from evmap.sources.geometry import crossings, point_segment_distances
 from evmap.sources.sim.scenario import Material, Scenario, Sunlight
 from evmap.sources.sim.surfaces import Surfaces
 
-__all__ = ["VERTEX_TOLERANCE", "World", "cast_rays", "visible", "wall_id"]
+__all__ = ["VERTEX_TOLERANCE", "World", "visible", "wall_id"]
 
 VERTEX_TOLERANCE = 1e-9
 """Wall points closer than this (m) are one vertex."""
@@ -153,69 +154,6 @@ def _centroid(polygon: NDArray[np.float64]) -> NDArray[np.float64]:
     return origin + np.array([((x + xn) * cross).sum() / area3, ((y + yn) * cross).sum() / area3])
 
 
-def _cross(ax: ArrayLike, ay: ArrayLike, bx: ArrayLike, by: ArrayLike) -> NDArray[np.float64]:
-    return np.asarray(ax) * by - np.asarray(ay) * bx
-
-
-def cast_rays(
-    origin: ArrayLike,
-    angles: ArrayLike,
-    p: ArrayLike,
-    q: ArrayLike,
-    centers: ArrayLike,
-    radii: ArrayLike,
-    max_range: float,
-) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
-    """Nearest hit of each ray from ``origin`` among segments ``p``-``q`` and circles.
-
-    Parameters
-    ----------
-    origin : (2,) ray origin.
-    angles : (R,) ray directions (radians, counter-clockwise from +x).
-    p, q : (N, 2) segment ends. centers : (K, 2), radii : (K,) circles.
-    max_range : hits further than this are no hits.
-
-    Returns
-    -------
-    ranges : (R,) distance to the nearest hit, ``inf`` where none.
-    hit : (R,) index of what was hit: ``0..N-1`` a segment, ``N..N+K-1`` a circle, -1 none.
-
-    Rays grazing a segment along its own line do not hit it; a circle is hit on its
-    near side (the origin must be outside every circle).
-
-    >>> ranges, hit = cast_rays([0, 0], [0, np.pi / 2, np.pi], [[2, -1]], [[2, 1]], [[0, 3]], [0.5], 10)
-    >>> ranges.tolist(), hit.tolist()
-    ([2.0, 2.5, inf], [0, 1, -1])
-    """
-    o = np.asarray(origin, dtype=float)
-    angles = np.asarray(angles, dtype=float)
-    dx, dy = np.cos(angles)[:, None], np.sin(angles)[:, None]
-    p, q = np.asarray(p, dtype=float).reshape(-1, 2), np.asarray(q, dtype=float).reshape(-1, 2)
-    ex, ey = q[:, 0] - p[:, 0], q[:, 1] - p[:, 1]
-    wx, wy = p[:, 0] - o[0], p[:, 1] - o[1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        denom = _cross(dx, dy, ex, ey)  # (R, N)
-        t = _cross(wx, wy, ex, ey) / denom  # o + t d = p + s e
-        s = _cross(wx, wy, dx, dy) / denom
-    t_segments = np.where((denom != 0) & (t > 0) & (s >= 0) & (s <= 1), t, np.inf)
-
-    c = np.asarray(centers, dtype=float).reshape(-1, 2) - o
-    r = np.asarray(radii, dtype=float).reshape(-1)
-    b = dx * c[:, 0] + dy * c[:, 1]  # (R, K)
-    disc = b**2 - ((c**2).sum(axis=1) - r**2)
-    with np.errstate(invalid="ignore"):
-        t_near = b - np.sqrt(disc)
-    t_circles = np.where((disc >= 0) & (t_near > 0), t_near, np.inf)
-
-    t_all = np.concatenate([t_segments, t_circles], axis=1)
-    if t_all.shape[1] == 0:
-        return np.full(len(angles), np.inf), np.full(len(angles), -1, dtype=np.intp)
-    hit = np.argmin(t_all, axis=1)
-    ranges = t_all[np.arange(len(angles)), hit]
-    found = ranges <= max_range
-    return np.where(found, ranges, np.inf), np.where(found, hit, -1).astype(np.intp)
-
-
 def visible(surfaces: Surfaces, origin: ArrayLike, targets: ArrayLike) -> NDArray[np.bool_]:
     """Whether the straight line from ``origin`` to each target crosses no LSL-opaque surface.
 
@@ -234,19 +172,11 @@ def visible(surfaces: Surfaces, origin: ArrayLike, targets: ArrayLike) -> NDArra
     d = np.asarray(targets, dtype=float).reshape(-1, 2) - o
     opaque = surfaces.lsl_opaque
     p, q = surfaces.p[opaque], surfaces.q[opaque]
-    dx, dy = d[:, 0:1], d[:, 1:2]
-    ex, ey = q[:, 0] - p[:, 0], q[:, 1] - p[:, 1]
-    wx, wy = p[:, 0] - o[0], p[:, 1] - o[1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        denom = _cross(dx, dy, ex, ey)  # (M, N)
-        t = _cross(wx, wy, ex, ey) / denom
-        s = _cross(wx, wy, dx, dy) / denom
-    blocked = ((denom != 0) & (t > 0) & (t < 1 - _ON_TARGET) & (s >= 0) & (s <= 1)).any(axis=1)
+    t, s = crossings(o, d[:, None], p, q - p)  # (M, N)
+    blocked = ((t > 0) & (t < 1 - _ON_TARGET) & (s >= 0) & (s <= 1)).any(axis=1)
 
     c = surfaces.cylinder_centers[surfaces.cylinder_lsl_opaque] - o
     r = surfaces.cylinder_radii[surfaces.cylinder_lsl_opaque]
-    length2 = np.maximum((d**2).sum(axis=1, keepdims=True), np.finfo(float).tiny)
-    along = np.clip((dx * c[:, 0] + dy * c[:, 1]) / length2, 0, 1)  # nearest point of the sight line
-    gap2 = (along * dx - c[:, 0]) ** 2 + (along * dy - c[:, 1]) ** 2
-    blocked |= (gap2 < (r * (1 - _ON_TARGET)) ** 2).any(axis=1)
+    gap = point_segment_distances(c, np.zeros(2), d[:, None])  # (M, K): the sight line to each centre
+    blocked |= (gap < r * (1 - _ON_TARGET)).any(axis=1)
     return ~blocked
