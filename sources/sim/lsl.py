@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evmap.sources.geometry import cast_rays
+from evmap.sources.geometry import cast_rays, crossings, point_segment_distances
 from evmap.sources.params import LslParams
 from evmap.sources.polyline import fit_pieces, piece_members, split_pieces
 from evmap.sources.readings import LslSegments, StripeScan, concat_segments
@@ -94,9 +94,7 @@ def stripe_scan(
     # opaque surfaces within range, with the bearing interval each one covers
     n = len(surfaces.segments)
     p, q = surfaces.p, surfaces.q
-    e = q - p
-    along = np.clip(((origin - p) * e).sum(axis=1) / np.maximum((e**2).sum(axis=1), 1e-300), 0, 1)
-    distance = np.hypot(*(p + along[:, None] * e - origin).T)
+    distance = point_segment_distances(origin, p, q)
     segs = np.flatnonzero(surfaces.lsl_opaque & (distance <= params.max_range))
     a1 = np.arctan2(*(p[segs] - origin)[:, ::-1].T)
     span = _wrap(np.arctan2(*(q[segs] - origin)[:, ::-1].T) - a1)
@@ -193,13 +191,10 @@ def _phantom_hits(
     """(phantom, ray, true range) of every ray of a phantom's snapshot that meets it nearer than the real stripe."""
     angles = scan.angles[snapshot]  # (P, R)
     u = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
-    a, e = (p - scan.origin)[:, None, :], (q - p)[:, None, :]
-    denominator = u[..., 0] * e[..., 1] - u[..., 1] * e[..., 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (a[..., 0] * e[..., 1] - a[..., 1] * e[..., 0]) / denominator  # range along the ray
-        s = (a[..., 0] * u[..., 1] - a[..., 1] * u[..., 0]) / denominator  # place along the phantom
+    # t: range along the ray; s: place along the phantom; NaN where parallel
+    t, s = crossings(scan.origin, u, p[:, None, :], (q - p)[:, None, :], parallel=1e-12)
     behind = scan.true_ranges[snapshot]
-    ok = (np.abs(denominator) > 1e-12) & (t > 0) & (s >= 0) & (s <= 1) & ~(t >= behind)
+    ok = (t > 0) & (s >= 0) & (s <= 1) & ~(t >= behind)
     phantom, ray = np.nonzero(ok)
     return phantom, ray, t[phantom, ray]
 
