@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from itertools import pairwise
 
+import hypothesis.strategies as st
 import numpy as np
 import pytest
 import shapely
+from hypothesis import given, settings
 
 from evmap.sources.params import SonarParams
 from evmap.sources.sim.scenario import MAX_PHANTOMS_PER_RUN, MAX_SUNLIGHT_LINES, parse_scenario
@@ -137,3 +139,36 @@ def test_sunlight_within_limits_on_long_tours():
         assert parse_scenario(scenario_yaml(w), "w.yaml") == w
     few = generate_world(1, WorldGenParams(sunlight_lines_total=12, sunlight_share=1))
     assert sum(r.lines for r in few.world.sunlight) <= 12
+
+
+@settings(max_examples=30)
+@given(
+    seed=st.integers(0, 2**63 - 1),
+    shares=st.tuples(*[st.floats(0, 1)] * 6),
+    hall=st.floats(0, 1),
+    poses=st.integers(1, 8),
+    clutter=st.integers(0, 12),
+)
+def test_any_seed_and_shares_give_a_valid_world_with_free_poses(seed, shares, hall, poses, clutter):
+    facade, window, sunlight, single, column_max, mirror = shares
+    params = WorldGenParams(
+        facade_share=facade,
+        window_share=window,
+        sunlight_share=sunlight,
+        single_pose_share=single,
+        column_max_share=column_max,
+        mirror_share=mirror,
+        large_hall_share=hall,
+        hall_share=(1 - hall) / 2,
+        poses=(poses, poses),
+        boxes=(clutter, clutter),
+        chairs=(0, clutter // 3),
+    )
+    w = generate_world(seed, params)
+    assert parse_scenario(scenario_yaml(w), "w.yaml") == w == generate_world(seed, params)
+    assert 1 <= len(w.robot.poses) <= poses
+    walls = _segments(w)
+    for x, y, _ in w.robot.poses:
+        assert walls.distance(shapely.Point(x, y)) >= PARAMS.clearance - 1e-3
+        for c in w.world.cylinders:
+            assert np.hypot(x - c.center[0], y - c.center[1]) - c.radius >= PARAMS.clearance - 1e-3

@@ -40,11 +40,15 @@ _MULLION = 0.2
 def glass_spans(draws: Draws, edges: list[Edge]) -> list[Span]:
     """The glass of a world: perhaps a facade on one long outer edge, and windows on other outer edges.
 
-    A world without a facade gets at least one window, on its longest outer edge that fits one.
+    The facade's edge is drawn with a probability proportional to its squared length, so it is
+    most often a wall of the main space. A world without a facade gets at least one window, on its longest outer edge that fits one.
     """
     p = draws.params
     long = [e for e in edges if e[2] and np.hypot(*(e[1] - e[0])) >= p.facade_min_length]
-    facade = long[int(draws.rng.integers(len(long)))] if long and draws.chance(p.facade_share) else None
+    facade = None
+    if long and draws.chance(p.facade_share):
+        weight = np.array([np.sum((b - a) ** 2) for a, b, _ in long])  # the longest walls are the likeliest fronts
+        facade = long[int(draws.rng.choice(len(long), p=weight / weight.sum()))]
     spans = facade_panes(draws, facade[0], facade[1]) if facade is not None else []
     fit = [e for e in edges if e[2] and e is not facade and np.hypot(*(e[1] - e[0])) >= p.window_width[0] + 2 * _MARGIN]
     chosen = [e for e in fit if draws.chance(p.window_share)]
