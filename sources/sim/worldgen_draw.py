@@ -72,17 +72,17 @@ def normal(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([-d[1], d[0]])
 
 
-def along(a: tuple[float, float], b: tuple[float, float], x: np.ndarray) -> float | None:
-    """Where ``x`` lies on a -> b as a fraction in (0, 1), or None when it is not strictly on it.
+def along(a: tuple[float, float], b: tuple[float, float], x: np.ndarray) -> np.ndarray:
+    """Where each point of ``x`` (N, 2) lies on a -> b as a fraction in (0, 1); NaN where not strictly on it.
 
-    >>> along((0, 0), (2, 0), np.array([0.5, 0.0])), along((0, 0), (2, 0), np.array([0.0, 0.0]))
-    (0.25, None)
+    >>> along((0, 0), (2, 0), np.array([[0.5, 0.0], [0.0, 0.0], [1.0, 0.1]])).tolist()
+    [0.25, nan, nan]
     """
-    a_, b_ = np.asarray(a), np.asarray(b)
-    d = b_ - a_
-    t = float(np.dot(x - a_, d) / np.dot(d, d))
-    off = abs(d[0] * (x[1] - a_[1]) - d[1] * (x[0] - a_[0])) / np.hypot(*d)
-    return t if off < 1e-6 and 1e-9 < t < 1 - 1e-9 else None
+    a_, d = np.asarray(a, dtype=float), np.subtract(b, a, dtype=float)
+    w = np.asarray(x, dtype=float).reshape(-1, 2) - a_
+    t = w @ d / np.dot(d, d)
+    off = np.abs(d[0] * w[:, 1] - d[1] * w[:, 0]) / np.hypot(*d)
+    return np.where((off < 1e-6) & (t > 1e-9) & (t < 1 - 1e-9), t, np.nan)
 
 
 def coords(points: Any) -> list[list[float]]:

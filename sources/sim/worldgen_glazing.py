@@ -88,6 +88,8 @@ def _windows(draws: Draws, a: np.ndarray, b: np.ndarray) -> list[Span]:
 def walls_by_material(free: shapely.Polygon, spans: list[Span]) -> list[dict[str, Any]]:
     """The boundary rings cut into polylines of one material each: walls (``wall-k``) and glass (``window-k``)."""
     walls: list[dict[str, Any]] = []
+    starts = np.array([a for a, _ in spans]).reshape(-1, 2)
+    ends = np.array([b for _, b in spans]).reshape(-1, 2)
     for ring in (free.exterior, *free.interiors):
         xy = [tuple(c) for c in np.round(np.asarray(ring.coords)[:-1], 3)]
         # insert the span ends into the ring, marking the glass pieces
@@ -95,11 +97,10 @@ def walls_by_material(free: shapely.Polygon, spans: list[Span]) -> list[dict[str
         for i, a in enumerate(xy):
             b = xy[(i + 1) % len(xy)]
             pts.append((a, "wall"))
-            inner = []
-            for sa, sb in spans:
-                ta, tb = along(a, b, sa), along(a, b, sb)
-                if ta is not None and tb is not None:
-                    inner += [(min(ta, tb), "glass"), (max(ta, tb), "wall")]
+            ta, tb = along(a, b, starts), along(a, b, ends)
+            on = np.flatnonzero(~np.isnan(ta) & ~np.isnan(tb))
+            low, high = np.minimum(ta[on], tb[on]).tolist(), np.maximum(ta[on], tb[on]).tolist()
+            inner = [(t, "glass") for t in low] + [(t, "wall") for t in high]
             for t, material in sorted(inner):
                 pts.append((tuple(np.round(np.asarray(a) + t * (np.asarray(b) - a), 3)), material))
         # a material applies from its point to the next; start the ring where a run starts
