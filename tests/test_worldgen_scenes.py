@@ -11,7 +11,7 @@ import shapely
 from hypothesis import given, settings
 
 from evmap.sources.params import SonarParams
-from evmap.sources.sim.scenario import MAX_PHANTOMS_PER_RUN, MAX_SUNLIGHT_LINES, parse_scenario
+from evmap.sources.sim.scenario import MAX_PHANTOMS_PER_RUN, MAX_SUNLIGHT_LINES, MAX_SUNLIGHT_REGIONS, parse_scenario
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World, visible
 from evmap.sources.sim.worldgen import WorldGenParams, generate_world, scenario_yaml, world_seed
@@ -172,3 +172,22 @@ def test_any_seed_and_shares_give_a_valid_world_with_free_poses(seed, shares, ha
         assert walls.distance(shapely.Point(x, y)) >= PARAMS.clearance - 1e-3
         for c in w.world.cylinders:
             assert np.hypot(x - c.center[0], y - c.center[1]) - c.radius >= PARAMS.clearance - 1e-3
+
+
+def test_a_long_facade_of_narrow_panes_stays_within_the_region_limit():
+    params = WorldGenParams(
+        large_hall_share=1,
+        hall_share=0,
+        large_hall_length=(60.0, 60.0),
+        large_hall_width=(40.0, 40.0),
+        facade_share=1,
+        facade_min_length=30,
+        pane_width=(0.3, 0.3),
+        sunlight_share=1,
+        sunlight_depth=(0.6, 0.6),
+        phantom_length=(0.02, 0.05),
+        single_pose_share=1,
+    )
+    w = generate_world(3, params)
+    assert len(w.world.sunlight) == MAX_SUNLIGHT_REGIONS
+    assert sum(x.material == "glass" for x in w.world.walls) > MAX_SUNLIGHT_REGIONS

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from evmap.sources.sim.spec import MAX_PHANTOMS_PER_RUN, MAX_SUNLIGHT_LINES
+from evmap.sources.sim.spec import MAX_PHANTOMS_PER_RUN, MAX_SUNLIGHT_LINES, MAX_SUNLIGHT_REGIONS
 from evmap.sources.sim.worldgen_draw import Draws, Edge, along, coords, normal
 from evmap.sources.sim.worldgen_params import WorldGenParams
 
@@ -125,11 +125,16 @@ def walls_by_material(free: shapely.Polygon, spans: list[Span]) -> list[dict[str
 
 
 def sunlight_regions(draws: Draws, free: shapely.Polygon, spans: list[Span]) -> list[tuple[shapely.Polygon, int]]:
-    """A region inside some spans (a world with glass gets at least one): ``(polygon, lines)``, not overlapping."""
+    """A region inside some spans (a world with glass gets at least one): ``(polygon, lines)``, not overlapping.
+
+    At most :data:`~evmap.sources.sim.spec.MAX_SUNLIGHT_REGIONS` regions.
+    """
     p = draws.params
     inner = free.buffer(-0.1, join_style="mitre")
     regions: list[tuple[shapely.Polygon, int]] = []
     for k, (a, b) in enumerate(spans):
+        if len(regions) == MAX_SUNLIGHT_REGIONS:
+            break
         if not draws.chance(p.sunlight_share) and not (k == len(spans) - 1 and not regions):
             continue
         n = normal(a, b)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from evmap.sources.sim.spec import MAX_POSES, MAX_SUNLIGHT_LINES
+from evmap.sources.sim.spec import MAX_POSES, MAX_SUNLIGHT_LINES, MAX_SUNLIGHT_LINES_PER_REGION
 
 __all__ = ["CountRange", "Range", "WorldGenParams"]
 
@@ -124,6 +124,10 @@ class WorldGenParams(BaseModel):
                 raise ValueError(f"{name}: need 0 <= low <= high, got {list(value)}")
         if not 1 <= self.poses[0] <= self.poses[1] <= MAX_POSES:
             raise ValueError(f"poses: need 1 <= low <= high <= {MAX_POSES}, got {list(self.poses)}")
+        if self.sunlight_lines[1] > MAX_SUNLIGHT_LINES_PER_REGION:
+            raise ValueError(
+                f"sunlight_lines: at most {MAX_SUNLIGHT_LINES_PER_REGION} per region, got {list(self.sunlight_lines)}"
+            )
         if self.hall_share + self.large_hall_share > 1:
             raise ValueError(
                 f"hall_share + large_hall_share: need at most 1, got {self.hall_share + self.large_hall_share:g}"
