@@ -91,6 +91,8 @@ def test_params_are_validated():
         WorldGenParams(poses=(0, 1))
     with pytest.raises(ValueError, match="poses"):
         WorldGenParams(poses=(3, 51))
+    with pytest.raises(ValueError, match="chairs"):
+        WorldGenParams(chairs=(0, 250), pillars=(0, 1))
     with pytest.raises(ValueError, match="sunlight_lines"):
         WorldGenParams(sunlight_lines=(10, 201))
     with pytest.raises(ValueError, match="large_hall_share"):

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from evmap.sources.sim.spec import MAX_POSES, MAX_SUNLIGHT_LINES, MAX_SUNLIGHT_LINES_PER_REGION
+from evmap.sources.sim.spec import MAX_CYLINDERS, MAX_POSES, MAX_SUNLIGHT_LINES, MAX_SUNLIGHT_LINES_PER_REGION
 
 __all__ = ["CountRange", "Range", "WorldGenParams"]
 
@@ -127,6 +127,11 @@ class WorldGenParams(BaseModel):
         if self.sunlight_lines[1] > MAX_SUNLIGHT_LINES_PER_REGION:
             raise ValueError(
                 f"sunlight_lines: at most {MAX_SUNLIGHT_LINES_PER_REGION} per region, got {list(self.sunlight_lines)}"
+            )
+        if self.pillars[1] + 4 * self.chairs[1] > MAX_CYLINDERS:
+            raise ValueError(
+                f"pillars and chairs: at most {MAX_CYLINDERS} cylinders (a chair has 4 legs), "
+                f"got up to {self.pillars[1]} + 4 x {self.chairs[1]}"
             )
         if self.hall_share + self.large_hall_share > 1:
             raise ValueError(
