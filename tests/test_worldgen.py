@@ -36,7 +36,7 @@ def test_world_seeds_are_distinct_and_in_range():
 
 def test_modest_size(worlds):
     counts = [wall_segment_count(w) for w in worlds]
-    assert min(counts) >= 20 and max(counts) <= 150
+    assert min(counts) >= 20 and max(counts) <= 250
 
 
 def test_windows_sunlight_and_phantom_lengths(worlds):
@@ -68,7 +68,7 @@ def test_first_pose_sees_sunlight_and_poses_are_clear(worlds):
 
 
 def test_features_appear_across_seeds(worlds):
-    assert any(w.world.cylinders for w in worlds)
+    assert any(any(c.id.startswith("pillar") for c in w.world.cylinders) for w in worlds)
     assert any(any(x.id.startswith("partition") for x in w.world.walls) for w in worlds)
     assert any(len(w.robot.poses) >= 2 for w in worlds)
     many = [generate_world(s) for s in range(100, 160)]
@@ -78,7 +78,7 @@ def test_features_appear_across_seeds(worlds):
 def test_rooms_open_onto_the_corridor(worlds):
     """The free space is one region: its walls form one outer ring (doors and passages connect every room)."""
     for w in worlds:
-        ring = [x for x in w.world.walls if not x.id.startswith("partition")]
+        ring = [x for x in w.world.walls if not x.id.startswith(("partition", "box"))]
         for a, b in zip(ring, ring[1:] + ring[:1]):  # consecutive polylines of one closed ring
             assert a.points[-1] == b.points[0]
         polygon = shapely.Polygon([p for x in ring for p in x.points[:-1]])
@@ -89,6 +89,14 @@ def test_rooms_open_onto_the_corridor(worlds):
 def test_params_are_validated():
     with pytest.raises(ValueError, match="poses"):
         WorldGenParams(poses=(0, 1))
+    with pytest.raises(ValueError, match="poses"):
+        WorldGenParams(poses=(3, 51))
+    with pytest.raises(ValueError, match="chairs"):
+        WorldGenParams(chairs=(0, 250), pillars=(0, 1))
+    with pytest.raises(ValueError, match="sunlight_lines"):
+        WorldGenParams(sunlight_lines=(10, 201))
+    with pytest.raises(ValueError, match="large_hall_share"):
+        WorldGenParams(hall_share=0.6, large_hall_share=0.6)
     with pytest.raises(ValueError, match="room_width"):
         WorldGenParams(room_width=(4.0, 3.0))
     with pytest.raises(ValueError, match="seed"):
@@ -96,7 +104,9 @@ def test_params_are_validated():
 
 
 def test_params_change_the_world():
-    w = generate_world(4, WorldGenParams(pillars=(3, 3), poses=(3, 3), partitions=(0, 0)))
-    assert len(w.world.cylinders) == 3
+    w = generate_world(4, WorldGenParams(pillars=(3, 3), poses=(3, 3), single_pose_share=0, partitions=(0, 0)))
+    assert len([c for c in w.world.cylinders if c.id.startswith("pillar")]) == 3
     assert len(w.robot.poses) == 3
     assert not any(x.id.startswith("partition") for x in w.world.walls)
+    bare = generate_world(4, WorldGenParams(boxes=(0, 0), chairs=(0, 0), pillars=(0, 0), single_pose_share=1))
+    assert not bare.world.cylinders and len(bare.robot.poses) == 1
