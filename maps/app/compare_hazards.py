@@ -7,8 +7,8 @@
 - :func:`free_behind_walls`: free cells of the occupancy grid that no pose could
   have seen: every pose's sight line to the cell's centre meets a true surface more
   than one cell before it.
-- :func:`sunlight_seen_twice`: every sunlight region is in range and in sight of two
-  poses or more (the worlds where persistence across poses can work).
+- :func:`sunlight_seen_twice`: every sunlight region that a pose sees is in range and in
+  sight of two poses or more (the worlds where persistence across poses can work).
 
 Nothing here is read by the pipeline; the comparison calls it after the maps are made.
 """
@@ -22,7 +22,8 @@ from evmap.maps.belief_map import BeliefMap
 from evmap.maps.occupancy import FREE_MAX, occupancy_from_masses, occupancy_masses
 from evmap.sources.config import Config
 from evmap.sources.geometry import cast_rays, point_segment_distances
-from evmap.sources.sim.world import World, visible
+from evmap.sources.sim.sightings import seen_twice
+from evmap.sources.sim.world import World
 
 __all__ = [
     "GRID_RESOLUTION",
@@ -94,12 +95,6 @@ def _hidden(world: World, xy: NDArray[np.float64]) -> NDArray[np.bool_]:
 
 
 def sunlight_seen_twice(world: World, config: Config) -> bool:
-    """Every sunlight region's centroid within the LSL's range of two poses or more, in their sight."""
-    if not len(world.sunlight):
-        return False
+    """:func:`~evmap.sources.sim.sightings.seen_twice` with the run's LSL (the config's, as the scenario overrides it)."""
     _, lsl = world.scenario.sensor_params(config.sensors.sonar, config.sensors.lsl)
-    seen = np.zeros(len(world.sunlight), dtype=int)
-    for x, y, _ in world.poses:
-        near = np.hypot(*(world.sunlight_centroids - (x, y)).T) <= lsl.max_range
-        seen += near & visible(world.surfaces(), np.array([x, y]), world.sunlight_centroids)
-    return bool((seen >= 2).all())
+    return seen_twice(world, lsl)

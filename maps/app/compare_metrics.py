@@ -35,7 +35,6 @@ from evmap.maps.app.compare_hazards import (
     SPURIOUS_ON_LINE,
     free_behind_walls,
     spurious_unidentified,
-    sunlight_seen_twice,
 )
 from evmap.maps.app.metrics import share
 from evmap.maps.app.run import Run
@@ -83,8 +82,8 @@ COLUMNS = ("rule", *METRICS, "max_conflict", *COUNTS, "seconds_per_world", "seco
 
 EXTRA_COLUMNS = ("config", *HAZARDS, "noise_eliminated", "real_eliminated", "sunlight_seen_twice")
 """The columns after :data:`COLUMNS` in ``worlds.csv`` (and, but ``config``, averaged in ``summary.csv``):
-the config, the hazards, the eliminated segments by truth, and whether every sunlight region is in
-sight and range of two poses or more (1) or not (0)."""
+the config, the hazards, the eliminated segments by truth, and whether every sunlight region that a
+pose sees is in sight and range of two poses or more (1) or not (0; set by the comparison, per world)."""
 
 GLASS_RADIUS = 0.3
 """An unidentified object within this distance (m) of a glass wall explains it."""
@@ -104,7 +103,8 @@ DEFINITIONS = {
     ),
     "mean_conflict": (
         "mean conflict K between the sonar and the LSL masses over all segments "
-        "(a property of the evidence, equal for every rule)"
+        "(a property of the evidence: equal for every rule from one pose; from a tour's later poses it "
+        "depends on the map each rule has built)"
     ),
     "map_error": (
         f"mean distance (m) to the nearest true surface of points every {MAP_ERROR_STEP} m along the final lines "
@@ -195,7 +195,6 @@ def world_metrics(run: Run, glass: NDArray[np.intp] | None = None) -> dict[str, 
         "free_behind_walls": behind / free if free else None,
         "noise_eliminated": int((store.eliminated & noise).sum()),
         "real_eliminated": int((store.eliminated & real).sum()),
-        "sunlight_seen_twice": int(sunlight_seen_twice(run.world, run.config)),
     }
 
 

@@ -299,8 +299,8 @@ def summary_markdown(comparison: Comparison) -> str:
         *[f"- `{m}`: {DEFINITIONS[m]}." for m in (*METRICS, *HAZARDS)],
         "- `noise_recall_pooled`, `real_loss_pooled`: the same ratios over the segments of all worlds together.",
         (
-            "- `noise_recall_seen_twice`: pooled noise recall on the worlds where every sunlight region is in range "
-            "and in sight of two poses or more."
+            "- `noise_recall_seen_twice`: pooled noise recall on the worlds where every sunlight region a pose "
+            "sees is in range and in sight of two poses or more."
         ),
         (
             "- `lines`: map lines with belief at least 0.5; `unidentified`: unidentified objects; "
