@@ -120,3 +120,14 @@ def test_spurious_unidentified_objects_by_their_definition():
 
 def _untimed(row):
     return {k: v for k, v in row.items() if not k.startswith("seconds")}
+
+
+def test_the_contract_lists_every_column_of_the_comparisons_tables():
+    from pathlib import Path
+
+    from evmap.maps.app.compare_tables import SUMMARY_COLUMNS, WORLD_COLUMNS
+
+    contract = (Path(__file__).parents[1] / "docs" / "SCENARIO.md").read_text()
+    section = contract[contract.index("## Comparisons") :]
+    for column in {*WORLD_COLUMNS, *SUMMARY_COLUMNS} - {c for c in SUMMARY_COLUMNS if c.endswith(("_lo", "_hi"))}:
+        assert f"`{column}`" in section, column
