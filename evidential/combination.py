@@ -98,45 +98,29 @@ def conflict(*masses: MassFunction) -> float:
     return float(c.masses[0, 0]) if c.masks.size and c.masks[0] == 0 else 0.0
 
 
-NARROW_SETS = 16
-"""Up to this many sets a row (two cache lines), a batch is read where it is, through a transposed view."""
-
 SAMPLE_ROWS = 64
 """Rows in which :func:`_support` first looks for the sets a batch uses."""
 
 
 def _batch(i: int, array: ArrayLike, shape: tuple[int, ...] | None) -> NDArray[np.float64]:
-    """A validated (N, 2**n) batch as a read-only (2**n, N) array: sets first.
-
-    Up to :data:`NARROW_SETS` sets, a transposed view of the caller's array (no
-    copy: the first step of a transform reads it where it is, and read-only, no
-    rule writes into it); beyond, a C-contiguous copy.
-    """
+    """Validated (2**n, N) C-contiguous copy of a (N, 2**n) batch."""
     a = np.asarray(array, dtype=np.float64)
     size = a.shape[-1] if a.ndim == 2 else 0
     if size < 2 or size & (size - 1) or (shape is not None and a.shape != shape):
         want = "(N, 2**n) with n >= 1" if shape is None else f"{shape} like batch 0"
         raise MassError(f"batch {i} must have shape {want}, got {a.shape}")
-    if not a.min() >= 0:
-        row, col = np.argwhere(~(a >= 0))[0]
+    t = np.ascontiguousarray(a.T)
+    if not t.min() >= 0:
+        col, row = np.argwhere(~(t >= 0))[0]
         raise MassError(
-            f"batch {i}, row {row}: mass of focal set {col} must be finite and >= 0, got {float(a[row, col])!r}"
+            f"batch {i}, row {row}: mass of focal set {col} must be finite and >= 0, got {float(t[col, row])!r}"
         )
-    if size <= NARROW_SETS:  # numpy sums a few columns per row one row at a time: add whole columns
-        t = a.T
-        total = t[0] + t[1]
-        for column in t[2:]:
-            total += column
-    else:
-        t = np.ascontiguousarray(a.T)
-        total = t.sum(axis=0)
+    total = t.sum(axis=0)
     if not (total.min() >= 1.0 - SUM_TOLERANCE and total.max() <= 1.0 + SUM_TOLERANCE):
         row = int(np.argmax(np.abs(total - 1.0)))
         raise MassError(
             f"batch {i}, row {row}: masses must sum to 1 (within {SUM_TOLERANCE}), got {float(total[row])!r}"
         )
-    t = t.view()
-    t.flags.writeable = False
     return t
 
 
@@ -185,7 +169,7 @@ def _support(dense: NDArray[np.float64]) -> Stack:
     size = dense.shape[0]
     if 2 * np.count_nonzero(dense[:, :SAMPLE_ROWS].max(axis=1)) > size:
         return full(dense)
-    used = np.ascontiguousarray(dense).max(axis=1) > 0
+    used = dense.max(axis=1) > 0
     if 2 * np.count_nonzero(used) > size:
         return full(dense)
     return Stack(np.flatnonzero(used), dense[used])

@@ -128,7 +128,7 @@ def test_batch_result_never_shares_memory_with_the_inputs(name, order):
         np.testing.assert_array_equal(a, b)
 
 
-@pytest.mark.parametrize("n", [2, 5])  # a transposed view of the caller's batch (4 sets), a copy (32 sets)
+@pytest.mark.parametrize("n", [2, 5])
 def test_sets_used_only_after_the_sampled_rows_are_combined(n):
     # the first 100 rows use one set: the full scan finds the sets of row 150
     from evidential import Frame
