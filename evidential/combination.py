@@ -98,6 +98,10 @@ def conflict(*masses: MassFunction) -> float:
     return float(c.masses[0, 0]) if c.masks.size and c.masks[0] == 0 else 0.0
 
 
+SAMPLE_ROWS = 64
+"""Rows in which :func:`_support` first looks for the sets a batch uses."""
+
+
 def _batch(i: int, array: ArrayLike, shape: tuple[int, ...] | None) -> NDArray[np.float64]:
     """Validated (2**n, N) C-contiguous copy of a (N, 2**n) batch."""
     a = np.asarray(array, dtype=np.float64)
@@ -158,10 +162,14 @@ def combine_batch(*batches: ArrayLike, rule: str | RuleFunction = "dempster") ->
 
 
 def _support(dense: NDArray[np.float64]) -> Stack:
-    """The stack of a dense (2**n, N) batch, without the sets of mass 0 in every row where
-    they are half of the sets or more (fewer sets, fewer pairs; below that, the copy costs
-    more than the pairs it saves)."""
-    used = dense.max(axis=1) > 0  # masses are >= 0
-    if 2 * np.count_nonzero(used) > dense.shape[0]:
+    """The stack of a dense (2**n, N) batch (masses >= 0), without the sets of mass 0 in every
+    row where they are half of the sets or more (fewer sets, fewer pairs; below that, the
+    copy costs more than the pairs it saves). Where the first :data:`SAMPLE_ROWS` rows
+    already use over half of the sets, the rest is not read."""
+    size = dense.shape[0]
+    if 2 * np.count_nonzero(dense[:, :SAMPLE_ROWS].max(axis=1)) > size:
+        return full(dense)
+    used = dense.max(axis=1) > 0
+    if 2 * np.count_nonzero(used) > size:
         return full(dense)
     return Stack(np.flatnonzero(used), dense[used])

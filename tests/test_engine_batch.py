@@ -126,3 +126,23 @@ def test_batch_result_never_shares_memory_with_the_inputs(name, order):
         out[...] = -1.0
     for a, b in zip(inputs, kept):
         np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("n", [2, 5])
+def test_sets_used_only_after_the_sampled_rows_are_combined(n):
+    # the first 100 rows use one set: the full scan finds the sets of row 150
+    from evidential import Frame
+
+    frame = Frame([f"e{i}" for i in range(n)])
+    full = (1 << n) - 1
+    M1 = np.zeros((200, 1 << n))
+    M1[:, full] = 1.0
+    M2 = np.zeros((200, 1 << n))
+    M2[:, 1] = 1.0
+    M2[150, [1, 2, full]] = [0.0, 0.25, 0.75]
+    M1[150, [1, full]] = [0.5, 0.5]
+    out = combine_batch(M1, M2)
+    for j in (0, 150):
+        objs = [MassFunction.from_dense(frame, M[j]) for M in (M1, M2)]
+        np.testing.assert_allclose(out[j], combine(*objs).dense(), rtol=0, atol=1e-15)
+    assert out[150, 1] > 0 and out[150, 2] > 0
