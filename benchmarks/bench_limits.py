@@ -30,7 +30,6 @@ import yaml
 
 from evmap import configs
 from evmap.sources.config import MAX_FRAME_ELEMENTS, MAX_FRAMES, MAX_SOURCES, MAX_STAGE_SOURCES
-from evmap.sources.loading import MAX_FILE_BYTES
 from evmap.sources.sim.spec import (
     MAX_CYLINDERS,
     MAX_PHANTOMS_PER_RUN,
@@ -121,50 +120,62 @@ def phantoms(poses: int) -> Callable[[], str]:
     return build
 
 
-def walls_ring() -> str:
-    """A ring of radius 5 m around one pose, of as many segments as the file size limit allows."""
-    per_point = len("[-4.9999, -4.9999], ")
-    n = min(MAX_WALL_SEGMENTS, (MAX_FILE_BYTES - 400) // per_point - 1)
+def ring_walls(segments: int) -> str:
+    """One wall: a ring of radius 5 m around the origin, of ``segments`` segments."""
     points = ", ".join(
-        f"[{5 * math.cos(2 * math.pi * k / n):.4f}, {5 * math.sin(2 * math.pi * k / n):.4f}]" for k in range(n)
+        f"[{5 * math.cos(2 * math.pi * k / segments):.4f}, {5 * math.sin(2 * math.pi * k / segments):.4f}]"
+        for k in range(segments)
     )
-    return (
-        HEADER
-        + f"name: walls-ring\nworld:\n  walls:\n    - {{id: ring, points: [{points}, [5.0, 0.0]]}}\n"
-        + (poses_text([(0.3, 0.2, 0.0)]))
-    )
+    return f"  walls:\n    - {{id: ring, points: [{points}, [5.0, 0.0]]}}\n"
 
 
-def walls_count() -> str:
-    """MAX_WALL_SEGMENTS segments (a snake on integer coordinates, under the file size limit), one pose inside."""
-    rows = 200
-    per_row = MAX_WALL_SEGMENTS // rows
-    points = []
-    for y in range(rows):
-        xs = range(per_row + 1) if y % 2 == 0 else range(per_row, -1, -1)
-        points += [f"[{x},{y}]" for x in xs]
-    # each row's last point and the next row's first are one segment: drop the extra points of the last row
-    points = points[: MAX_WALL_SEGMENTS + 1]
-    return (
-        HEADER
-        + f"name: walls-count\nworld:\n  walls:\n    - {{id: snake, points: [{','.join(points)}]}}\n"
-        + (poses_text([(per_row / 2 + 0.5, rows / 2 + 0.5, 0.0)]))
+def inside_ring(poses: int) -> list[tuple[float, float, float]]:
+    """``poses`` poses inside the ring, on two circles."""
+    return [
+        (
+            1.2 * (1 + k % 2) * math.cos(2 * math.pi * k / poses),
+            1.2 * (1 + k % 2) * math.sin(2 * math.pi * k / poses),
+            (37 * k) % 360,
+        )
+        for k in range(poses)
+    ]
+
+
+def walls_ring(poses: int) -> Callable[[], str]:
+    """A ring of MAX_WALL_SEGMENTS segments, every one in the sensors' range, around ``poses`` poses."""
+
+    def build() -> str:
+        return HEADER + f"name: walls-ring\nworld:\n{ring_walls(MAX_WALL_SEGMENTS)}" + poses_text(inside_ring(poses))
+
+    return build
+
+
+def cylinder_grid(count: int, skip: list[tuple[float, float, float]]) -> str:
+    """``count`` pillars of radius 0.05 m on a 0.4 m grid around the origin, none on a pose of ``skip``."""
+    side = math.ceil(math.sqrt(count)) + 4
+    spots = [(0.4 * (i - side // 2) + 0.2, 0.4 * (j - side // 2) + 0.2) for i in range(side) for j in range(side)]
+    free = [(x, y) for x, y in spots if all(math.hypot(x - px, y - py) > 0.15 for px, py, _ in skip)][:count]
+    return "  cylinders:\n" + "".join(
+        f"    - {{id: c{k}, center: [{x:.2f}, {y:.2f}], radius: 0.05}}\n" for k, (x, y) in enumerate(free)
     )
 
 
 def cylinders() -> str:
-    """MAX_CYLINDERS pillars on a grid around one pose, all within the sensors' range."""
-    side = math.ceil(math.sqrt(MAX_CYLINDERS + 1))
-    spots = [(i, j) for i in range(side) for j in range(side) if (i, j) != (side // 2, side // 2)][:MAX_CYLINDERS]
-    pillars = "".join(
-        f"    - {{id: c{k}, center: [{0.4 * (i - side // 2)}, {0.4 * (j - side // 2)}], radius: 0.05}}\n"
-        for k, (i, j) in enumerate(spots)
-    )
+    """MAX_CYLINDERS pillars on a grid around MAX_POSES poses, all within the sensors' range."""
+    at = inside_ring(MAX_POSES)
+    return HEADER + "name: cylinders\nworld:\n  walls: []\n" + cylinder_grid(MAX_CYLINDERS, at) + poses_text(at)
+
+
+def everything() -> str:
+    """Every count at its limit at once: ring walls, pillars inside, MAX_POSES poses, a sunlit patch."""
+    at = inside_ring(MAX_POSES)
+    lines = MAX_PHANTOMS_PER_RUN // MAX_POSES
     return (
         HEADER
-        + "name: cylinders\nworld:\n  walls: []\n  cylinders:\n"
-        + pillars
-        + poses_text([(0.0, 0.0, 0.0), (0.2, 0.2, 45.0)])
+        + f"name: everything\nworld:\n{ring_walls(MAX_WALL_SEGMENTS)}"
+        + cylinder_grid(MAX_CYLINDERS, at).replace("center: [", "center: [").replace("radius: 0.05", "radius: 0.03")
+        + f"  sunlight:\n    - {{polygon: {square(0, 0, 0.5)}, lines: {lines}, length: [0.05, 0.4]}}\n"
+        + poses_text(at)
     )
 
 
@@ -181,17 +192,16 @@ def star(cx: float, cy: float, radius: float, vertices: int) -> str:
 
 
 def sunlight_regions() -> str:
-    """MAX_SUNLIGHT_REGIONS star polygons of MAX_POLYGON_VERTICES vertices, all in range of poses among them."""
-    poses = MAX_PHANTOMS_PER_RUN // MAX_SUNLIGHT_LINES
-    lines = MAX_SUNLIGHT_LINES // MAX_SUNLIGHT_REGIONS
+    """MAX_SUNLIGHT_REGIONS star polygons of MAX_POLYGON_VERTICES vertices, in range of MAX_POSES poses among them."""
+    per_pose = min(MAX_SUNLIGHT_LINES, MAX_PHANTOMS_PER_RUN // MAX_POSES)
     side = math.ceil(math.sqrt(MAX_SUNLIGHT_REGIONS))
     sun = "".join(
         f"    - {{polygon: {star(1.1 * (k % side), 1.1 * (k // side), 0.5, MAX_POLYGON_VERTICES)}, "
-        f"lines: {lines}, length: [0.02, 0.2]}}\n"
+        f"lines: {int(k < per_pose)}, length: [0.02, 0.2]}}\n"
         for k in range(MAX_SUNLIGHT_REGIONS)
     )
     middle = 1.1 * (side // 2 - 0.5)
-    at = [(middle + 1.1 * (k % 2), middle + 1.1 * (k // 2 % 2), 72.0 * k) for k in range(poses)]
+    at = [(middle + 1.1 * (k % 2), middle + 1.1 * (k // 2 % 2), (37.0 * k) % 360) for k in range(MAX_POSES)]
     return HEADER + "name: sunlight-regions\nworld:\n  walls: []\n  sunlight:\n" + sun + poses_text(at)
 
 
@@ -241,17 +251,25 @@ def config_limits() -> str:
 CASES = (
     Case("poses-cluster", "MAX_POSES; MAX_PHANTOMS_PER_RUN", f"{MAX_POSES}; {MAX_PHANTOMS_PER_RUN}", poses_cluster),
     Case("poses-corridor", "MAX_POSES; MAX_PHANTOMS_PER_RUN", f"{MAX_POSES}; {MAX_PHANTOMS_PER_RUN}", poses_corridor),
-    Case("phantoms-10-poses", "MAX_PHANTOMS_PER_RUN; per region", f"{MAX_PHANTOMS_PER_RUN}; 200", phantoms(10)),
-    Case("phantoms-5-poses", "MAX_SUNLIGHT_LINES (per pose)", f"{MAX_SUNLIGHT_LINES}", phantoms(5)),
-    Case("walls-ring", "MAX_FILE_BYTES (walls in sight)", f"{MAX_FILE_BYTES}", walls_ring),
-    Case("walls-count", "MAX_WALL_SEGMENTS", f"{MAX_WALL_SEGMENTS}", walls_count),
-    Case("cylinders", "MAX_CYLINDERS", f"{MAX_CYLINDERS}", cylinders),
+    Case(
+        "phantoms-2-poses",
+        "MAX_PHANTOMS_PER_RUN; MAX_SUNLIGHT_LINES_PER_REGION",
+        f"{MAX_PHANTOMS_PER_RUN}; {MAX_SUNLIGHT_LINES_PER_REGION}",
+        phantoms(2),
+    ),
+    Case("phantoms-1-pose", "MAX_SUNLIGHT_LINES (per pose)", f"{MAX_SUNLIGHT_LINES}", phantoms(1)),
+    Case("walls-ring", "MAX_WALL_SEGMENTS (in sight)", f"{MAX_WALL_SEGMENTS}", walls_ring(1)),
+    Case(
+        "walls-ring-poses", "MAX_WALL_SEGMENTS; MAX_POSES", f"{MAX_WALL_SEGMENTS}; {MAX_POSES}", walls_ring(MAX_POSES)
+    ),
+    Case("cylinders", "MAX_CYLINDERS; MAX_POSES", f"{MAX_CYLINDERS}; {MAX_POSES}", cylinders),
     Case(
         "sunlight-regions",
-        "MAX_SUNLIGHT_REGIONS; MAX_POLYGON_VERTICES",
-        f"{MAX_SUNLIGHT_REGIONS}; {MAX_POLYGON_VERTICES}",
+        "MAX_SUNLIGHT_REGIONS; MAX_POLYGON_VERTICES; MAX_POSES",
+        f"{MAX_SUNLIGHT_REGIONS}; {MAX_POLYGON_VERTICES}; {MAX_POSES}",
         sunlight_regions,
     ),
+    Case("everything", "all counts above at once", "", everything),
     Case(
         "config-limits",
         "MAX_FRAMES; MAX_FRAME_ELEMENTS; MAX_SOURCES",
@@ -339,7 +357,7 @@ def main() -> None:
     parser.add_argument("--cases", nargs="*", default=[c.name for c in CASES], choices=[c.name for c in CASES])
     parser.add_argument("--configs", nargs="*", default=["paper", "default"])
     parser.add_argument("--repeat", type=int, default=3, help="runs of a case over half the budget (median)")
-    parser.add_argument("--figures-case", default="poses-corridor", help="the case also run with png figures")
+    parser.add_argument("--figures-case", default="everything", help="the case also run with png figures")
     args = parser.parse_args()
     print(
         f"budget {BUDGET_SECONDS:.0f} s and {BUDGET_MB / 1024:.0f} GB per run; load average now "
