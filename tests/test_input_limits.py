@@ -78,7 +78,7 @@ def test_deep_nesting_is_refused_with_the_limit() -> None:
 
 
 def test_a_huge_value_is_never_written_out_in_a_message() -> None:
-    text = scenario_text(**{"name: corridor": "name: [" + ", ".join(["123456789"] * 100_000) + "]"})
+    text = scenario_text(**{"name: corridor": "name: [" + ", ".join(["123456789"] * 50_000) + "]"})
     with pytest.raises(InputError) as err:
         parse_scenario(text, "big.yaml")
     assert len(str(err.value)) < 300 and "name: Input should be a valid string" in str(err.value)
