@@ -30,6 +30,7 @@ import yaml
 
 from evmap import configs
 from evmap.sources.config import MAX_FRAME_ELEMENTS, MAX_FRAMES, MAX_SOURCES, MAX_STAGE_SOURCES
+from evmap.sources.params import MAX_STRIPE_POINTS
 from evmap.sources.sim.spec import (
     MAX_CYLINDERS,
     MAX_PHANTOMS_PER_RUN,
@@ -148,6 +149,18 @@ def walls_ring(poses: int) -> Callable[[], str]:
         return HEADER + f"name: walls-ring\nworld:\n{ring_walls(MAX_WALL_SEGMENTS)}" + poses_text(inside_ring(poses))
 
     return build
+
+
+def sensors() -> str:
+    """The ring of MAX_WALL_SEGMENTS around MAX_POSES poses, seen by the densest sensors allowed: an LSL scan of
+    MAX_STRIPE_POINTS points (180-degree snapshots every 0.05 degree), sonar readings every 0.1 degree, 100 m range."""
+    snapshots = MAX_STRIPE_POINTS // (int(180 / 0.05) + 1)
+    return (
+        walls_ring(MAX_POSES)()
+        + "sensors:\n  sonar: {beam_width_deg: 90, step_deg: 0.1, max_range: 100.0}\n"
+        + f"  lsl: {{fov_deg: 180, snapshots: {snapshots}, step_deg: {360 / snapshots}, ray_step_deg: 0.05, "
+        "max_range: 100.0}\n"
+    )
 
 
 def cylinder_grid(count: int, skip: list[tuple[float, float, float]]) -> str:
@@ -270,6 +283,12 @@ CASES = (
         sunlight_regions,
     ),
     Case("everything", "all counts above at once", "", everything),
+    Case(
+        "sensors",
+        "MAX_STRIPE_POINTS; MAX_WALL_SEGMENTS; MAX_POSES",
+        f"{MAX_STRIPE_POINTS}; sonar step 0.1 deg",
+        sensors,
+    ),
     Case(
         "config-limits",
         "MAX_FRAMES; MAX_FRAME_ELEMENTS; MAX_SOURCES",

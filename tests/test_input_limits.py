@@ -18,7 +18,7 @@ import yaml
 from evmap import configs
 from evmap.sources.config import check_simulated_run, load_config
 from evmap.sources.loading import MAX_DEPTH, MAX_FILE_BYTES, MAX_NODES, InputError, parse_document, read_document
-from evmap.sources.params import LslParams
+from evmap.sources.params import MAX_STRIPE_POINTS, LslParams, SonarParams
 from evmap.sources.sim.lsl import observe_lsl_all
 from evmap.sources.sim.scenario import MAX_PHANTOMS_PER_RUN, MAX_SUNLIGHT_LINES, load_scenario, parse_scenario
 from evmap.sources.sim.world import World
@@ -120,6 +120,26 @@ def test_phantom_line_counts_are_limited_whatever_their_type(lines: str) -> None
     text = yaml.safe_dump(data).replace("LINES", lines).replace("'", "")
     with pytest.raises(InputError, match=r"world\.sunlight: .* sunlight lines.*more than the limit of"):
         parse_scenario(text, "many.yaml")
+
+
+def test_an_lsl_scan_of_too_many_stripe_points_is_refused_with_its_key_path() -> None:
+    data = corridor_data()
+    data["sensors"]["lsl"] |= {"fov_deg": 180, "ray_step_deg": 0.05, "snapshots": 6}
+    with pytest.raises(
+        InputError,
+        match=rf"dense.yaml: sensors\.lsl: .*21606 stripe points per scan, more than the limit of {MAX_STRIPE_POINTS}",
+    ):
+        parse_scenario(yaml.safe_dump(data), "dense.yaml")
+    data["sensors"]["lsl"]["snapshots"] = 5
+    assert parse_scenario(yaml.safe_dump(data), "dense.yaml").sensors.lsl.snapshots == 5
+
+
+def test_a_scenario_lsl_over_a_config_lsl_is_checked_against_the_stripe_point_limit() -> None:
+    data = corridor_data()
+    data["sensors"]["lsl"] = {"ray_step_deg": 0.05}
+    scenario = parse_scenario(yaml.safe_dump(data), "fine.yaml")
+    with pytest.raises(InputError, match=r"scenario 'corridor': sensors\.lsl \(ray_step_deg\) over the config's"):
+        scenario.sensor_params(SonarParams(), LslParams(snapshots=40))
 
 
 def test_phantoms_over_all_poses_are_limited() -> None:
