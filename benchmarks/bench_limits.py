@@ -31,6 +31,8 @@ import yaml
 from evmap import configs
 from evmap.sources.config import MAX_FRAME_ELEMENTS, MAX_FRAMES, MAX_SOURCES, MAX_STAGE_SOURCES
 from evmap.sources.params import MAX_STRIPE_POINTS
+from evmap.sources.range_sensor import MAX_RANGE_RAYS
+from evmap.sources.sensor_kinds import MAX_SENSORS
 from evmap.sources.sim.spec import (
     MAX_CYLINDERS,
     MAX_PHANTOMS_PER_RUN,
@@ -261,6 +263,32 @@ def config_limits() -> str:
     return yaml.safe_dump(data, sort_keys=False)
 
 
+def config_sensors() -> str:
+    """The default config with MAX_SENSORS range sensors of MAX_RANGE_RAYS rays each, every one read by a source."""
+    data = yaml.safe_load(configs.path("default.yaml").read_text())
+    rays = 5
+    sensors = {
+        f"r{k}": {"kind": "range", "beams": MAX_RANGE_RAYS // rays, "rays": rays, "cone_deg": 30, "max_range": 100.0}
+        for k in range(MAX_SENSORS)
+    }
+    table = {
+        "echo": {"real": 0.6, "unknown": 0.4},
+        "beyond": {"noise": 0.6, "unknown": 0.4},
+        "no_return": {"unknown": 1},
+    }
+    for name in sensors:
+        data["sources"][name] = {
+            "kind": "table",
+            "frame": "existence",
+            "feature": f"{name}_return",
+            "categories": list(table),
+            "table": table,
+        }
+    data["extra_sensors"] = sensors
+    data["stages"]["noise_elimination"] += list(sensors)
+    return yaml.safe_dump(data, sort_keys=False)
+
+
 CASES = (
     Case("poses-cluster", "MAX_POSES; MAX_PHANTOMS_PER_RUN", f"{MAX_POSES}; {MAX_PHANTOMS_PER_RUN}", poses_cluster),
     Case("poses-corridor", "MAX_POSES; MAX_PHANTOMS_PER_RUN", f"{MAX_POSES}; {MAX_PHANTOMS_PER_RUN}", poses_corridor),
@@ -295,6 +323,13 @@ CASES = (
         f"{MAX_FRAMES}; {MAX_FRAME_ELEMENTS}; {MAX_SOURCES}",
         poses_cluster,
         config_limits,
+    ),
+    Case(
+        "config-sensors",
+        "MAX_SENSORS; MAX_RANGE_RAYS; MAX_WALL_SEGMENTS; MAX_POSES",
+        f"{MAX_SENSORS}; {MAX_RANGE_RAYS}; {MAX_WALL_SEGMENTS}; {MAX_POSES}",
+        walls_ring(MAX_POSES),
+        config_sensors,
     ),
 )
 
