@@ -17,8 +17,10 @@ import yaml
 
 from evmap import configs
 from evmap.sources.config import check_simulated_run, load_config
+from evmap.sources.detector import MAX_FALSE_ALARMS
 from evmap.sources.loading import MAX_DEPTH, MAX_FILE_BYTES, MAX_NODES, InputError, parse_document, read_document
 from evmap.sources.params import MAX_STRIPE_POINTS, LslParams, SonarParams
+from evmap.sources.range_sensor import MAX_RANGE_RAYS
 from evmap.sources.sim.lsl import observe_lsl_all
 from evmap.sources.sim.scenario import MAX_PHANTOMS_PER_RUN, MAX_SUNLIGHT_LINES, load_scenario, parse_scenario
 from evmap.sources.sim.world import World
@@ -140,6 +142,34 @@ def test_a_scenario_lsl_over_a_config_lsl_is_checked_against_the_stripe_point_li
     scenario = parse_scenario(yaml.safe_dump(data), "fine.yaml")
     with pytest.raises(InputError, match=r"scenario 'corridor': sensors\.lsl \(ray_step_deg\) over the config's"):
         scenario.sensor_params(SonarParams(), LslParams(snapshots=40))
+
+
+@pytest.mark.parametrize(
+    ("example", "sensor", "change", "message"),
+    [
+        (
+            "infrared",
+            "ir",
+            {"beams": 3600, "rays": 100},
+            rf"3600 beams x 3 sweep steps x 100 rays make 1080000 rays per pose, more than the limit of {MAX_RANGE_RAYS}",
+        ),
+        (
+            "radar",
+            "radar",
+            {"max_range": 100.0, "false_alarms": [[0.0, 1000.0], [100.0, 1000.0]]},
+            rf"false_alarms: 100000 false reports expected per scan, more than the limit of {MAX_FALSE_ALARMS}",
+        ),
+    ],
+)
+def test_a_sensor_too_costly_to_simulate_is_refused_with_its_key_path(
+    tmp_path: Path, example: str, sensor: str, change: dict, message: str
+) -> None:
+    data = yaml.safe_load(configs.path(f"examples/{example}.yaml").read_text())
+    data["extra_sensors"][sensor] |= change
+    path = tmp_path / "costly.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(InputError, match=rf"costly.yaml: extra_sensors\.{sensor}: .*{message}"):
+        load_config(path)
 
 
 def test_phantoms_over_all_poses_are_limited() -> None:
