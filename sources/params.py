@@ -25,10 +25,11 @@ __all__ = [
 ]
 
 
-MAX_STRIPE_POINTS = 20_000
+MAX_STRIPE_POINTS = 5_000
 """Most stripe points of one LSL scan: ``snapshots`` times the rays of one snapshot
 (``fov_deg / ray_step_deg + 1``); the paper's sensor has 2,040. One scan of 1.3 million
-points (360 snapshots of 180 degrees every 0.05 degree) took 30 s (``benchmarks/bench_limits.py``)."""
+points (360 snapshots of 180 degrees every 0.05 degree) took 30 s; under the default config, 10 poses
+of 18,000 points inside a ring of 1,000 wall segments took up to 109 s (``benchmarks/bench_limits.py``)."""
 
 
 class _Params(BaseModel):
@@ -76,7 +77,7 @@ class LslParams(_Params):
         Traceback (most recent call last):
         ...
         pydantic_core._pydantic_core.ValidationError: 1 validation error for LslParams
-          Value error, 360 snapshots of 3601 stripe points (fov_deg / ray_step_deg + 1) make 1296360 stripe points per scan, more than the limit of 20000 [...]
+          Value error, 360 snapshots of 3601 stripe points (fov_deg / ray_step_deg + 1) make 1296360 stripe points per scan, more than the limit of 5000 [...]
         ...
         """
         points = self.snapshots * self.stripe_rays

@@ -126,22 +126,22 @@ def test_phantom_line_counts_are_limited_whatever_their_type(lines: str) -> None
 
 def test_an_lsl_scan_of_too_many_stripe_points_is_refused_with_its_key_path() -> None:
     data = corridor_data()
-    data["sensors"]["lsl"] |= {"fov_deg": 180, "ray_step_deg": 0.05, "snapshots": 6}
+    data["sensors"]["lsl"] |= {"fov_deg": 180, "ray_step_deg": 0.05, "snapshots": 2}
     with pytest.raises(
         InputError,
-        match=rf"dense.yaml: sensors\.lsl: .*21606 stripe points per scan, more than the limit of {MAX_STRIPE_POINTS}",
+        match=rf"dense.yaml: sensors\.lsl: .*7202 stripe points per scan, more than the limit of {MAX_STRIPE_POINTS}",
     ):
         parse_scenario(yaml.safe_dump(data), "dense.yaml")
-    data["sensors"]["lsl"]["snapshots"] = 5
-    assert parse_scenario(yaml.safe_dump(data), "dense.yaml").sensors.lsl.snapshots == 5
+    data["sensors"]["lsl"]["snapshots"] = 1
+    assert parse_scenario(yaml.safe_dump(data), "dense.yaml").sensors.lsl.snapshots == 1
 
 
 def test_a_scenario_lsl_over_a_config_lsl_is_checked_against_the_stripe_point_limit() -> None:
     data = corridor_data()
-    data["sensors"]["lsl"] = {"ray_step_deg": 0.05}
+    data["sensors"]["lsl"] = {"ray_step_deg": 0.1}
     scenario = parse_scenario(yaml.safe_dump(data), "fine.yaml")
     with pytest.raises(InputError, match=r"scenario 'corridor': sensors\.lsl \(ray_step_deg\) over the config's"):
-        scenario.sensor_params(SonarParams(), LslParams(snapshots=40))
+        scenario.sensor_params(SonarParams(), LslParams(snapshots=20))
 
 
 @pytest.mark.parametrize(

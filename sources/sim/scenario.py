@@ -315,10 +315,10 @@ class Scenario(SpecModel):
         (4.0, 5.0, 0.01)
         >>> wide = parse_scenario('''
         ... {version: 1, name: w, world: {walls: []}, robot: {poses: [[0, 0, 0]]}, sensors: {lsl: {fov_deg: 36}}}''', "w.yaml")
-        >>> wide.sensor_params(SonarParams(), LslParams(snapshots=140))
+        >>> wide.sensor_params(SonarParams(), LslParams(snapshots=30))
         Traceback (most recent call last):
         ...
-        evmap.sources.loading.InputError: scenario 'w': sensors.lsl (fov_deg) over the config's sensors.lsl: Value error, 140 snapshots of 181 stripe points (fov_deg / ray_step_deg + 1) make 25340 stripe points per scan, more than the limit of 20000
+        evmap.sources.loading.InputError: scenario 'w': sensors.lsl (fov_deg) over the config's sensors.lsl: Value error, 30 snapshots of 181 stripe points (fov_deg / ray_step_deg + 1) make 5430 stripe points per scan, more than the limit of 5000
         """
         merged = []
         for key, given, defaults in (

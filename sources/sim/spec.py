@@ -38,8 +38,9 @@ MAX_WALL_SEGMENTS = 1_000
 """Most wall segments (consecutive point pairs, all polylines together) in a scenario. The sonar model's
 memory grows with the square of the segments in its range: a ring of 4,000 segments around a pose
 needs 2.6 GB, 10,000 more than 8 GB (``benchmarks/bench_limits.py``)."""
-MAX_CYLINDERS = 1_000
-"""Most cylinders in a scenario."""
+MAX_CYLINDERS = 100
+"""Most cylinders in a scenario. The run's figures draw every cylinder in every pose's figures: 1,000
+cylinders seen from 10 poses took over 150 s with png figures (``benchmarks/bench_limits.py``)."""
 MAX_SUNLIGHT_REGIONS = 100
 """Most sunlight regions in a scenario."""
 MAX_SUNLIGHT_LINES_PER_REGION = 200
