@@ -27,7 +27,11 @@ from pydantic import Field, Strict, model_validator
 
 from evmap.sources.sensor_kinds import SensorSpec
 
-__all__ = ["DETECTOR_ARRAYS", "DETECTOR_CATEGORIES", "DetectorSpec", "detector_features"]
+__all__ = ["DETECTOR_ARRAYS", "DETECTOR_CATEGORIES", "MAX_FALSE_ALARMS", "DetectorSpec", "detector_features"]
+
+MAX_FALSE_ALARMS = 1_000
+"""Most false reports a detector expects per scan (``false_alarms`` over its range and field of view).
+100,000 per scan (1,000 per metre up to 100 m) took 40 s over 10 poses (``benchmarks/bench_limits.py``)."""
 
 Material = Annotated[str, Strict(), Field(min_length=1, max_length=200)]
 Point = tuple[Annotated[float, Field(ge=0, le=100)], Annotated[float, Field(ge=0, le=1000)]]
@@ -65,7 +69,24 @@ class DetectorSpec(SensorSpec):
                 raise ValueError(f"{key}: ranges must be strictly increasing, got {ranges}")
         if any(not 0 <= prob <= 1 for _, prob in self.detection):
             raise ValueError("detection: probabilities must be in [0, 1]")
+        expected = float(self.false_alarm_bins()[1].sum())
+        if expected > MAX_FALSE_ALARMS:
+            raise ValueError(
+                f"false_alarms: {expected:.0f} false reports expected per scan, more than the limit of {MAX_FALSE_ALARMS}"
+            )
         return self
+
+    def false_alarm_bins(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The 201 range bin edges from 0 to ``max_range`` and the expected false reports per scan in each bin.
+
+        >>> edges, rate = DetectorSpec(kind="detector", materials=["wall"]).false_alarm_bins()
+        >>> len(edges), len(rate), round(float(rate.sum()), 3)  # 0 to 0.5 per metre over 4 m
+        (201, 200, 1.0)
+        """
+        edges = np.linspace(0, self.max_range, 201)
+        mid, width = (edges[1:] + edges[:-1]) / 2, np.diff(edges)
+        rate = np.maximum(np.interp(mid, *np.array(self.false_alarms).T), 0) * width * self.fov_deg / 360
+        return edges, rate
 
     def in_view(self, pose: NDArray[np.float64], points: NDArray[np.float64]) -> NDArray[np.bool_]:
         """(M,) whether each point is within range and field of view of the pose."""

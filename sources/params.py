@@ -9,9 +9,10 @@ and metres at this edge; the code converts to radians where it uses them.
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 __all__ = [
+    "MAX_STRIPE_POINTS",
     "CornerParams",
     "LslParams",
     "MatchParams",
@@ -22,6 +23,13 @@ __all__ = [
     "SonarParams",
     "UnidentifiedParams",
 ]
+
+
+MAX_STRIPE_POINTS = 5_000
+"""Most stripe points of one LSL scan: ``snapshots`` times the rays of one snapshot
+(``fov_deg / ray_step_deg + 1``); the paper's sensor has 2,040. One scan of 1.3 million
+points (360 snapshots of 180 degrees every 0.05 degree) took 30 s; under the default config, 10 poses
+of 18,000 points inside a ring of 1,000 wall segments took up to 109 s (``benchmarks/bench_limits.py``)."""
 
 
 class _Params(BaseModel):
@@ -60,6 +68,34 @@ class LslParams(_Params):
     ray_step_deg: float = Field(0.2, ge=0.05, le=5, description="angle between two stripe points seen")
     split_sigmas: float = Field(3.0, ge=0, le=10, description="split distance grows by this many range-noise stds")
     break_distance: float = Field(0.1, gt=0, le=10, description="stripe points further apart break a polyline (m)")
+
+    @model_validator(mode="after")
+    def _few_enough_points(self) -> LslParams:
+        """Refuse a scan of more than :data:`MAX_STRIPE_POINTS` stripe points.
+
+        >>> LslParams(snapshots=360, fov_deg=180, ray_step_deg=0.05)
+        Traceback (most recent call last):
+        ...
+        pydantic_core._pydantic_core.ValidationError: 1 validation error for LslParams
+          Value error, 360 snapshots of 3601 stripe points (fov_deg / ray_step_deg + 1) make 1296360 stripe points per scan, more than the limit of 5000 [...]
+        ...
+        """
+        points = self.snapshots * self.stripe_rays
+        if points > MAX_STRIPE_POINTS:
+            raise ValueError(
+                f"{self.snapshots} snapshots of {self.stripe_rays} stripe points (fov_deg / ray_step_deg + 1) "
+                f"make {points} stripe points per scan, more than the limit of {MAX_STRIPE_POINTS}"
+            )
+        return self
+
+    @property
+    def stripe_rays(self) -> int:
+        """Stripe points (rays) of one snapshot.
+
+        >>> LslParams().stripe_rays
+        136
+        """
+        return int(self.fov_deg / self.ray_step_deg + 1e-9) + 1
 
 
 class RcdParams(_Params):

@@ -28,7 +28,7 @@ from typing import Annotated, Literal
 import numpy as np
 import shapely
 from numpy.typing import NDArray
-from pydantic import Field, Strict
+from pydantic import Field, Strict, model_validator
 
 from evmap.sources.open_space import open_space
 from evmap.sources.params import OpenSpaceParams, RcdParams, SonarParams
@@ -37,7 +37,7 @@ from evmap.sources.readings import SonarScan
 from evmap.sources.relation import RELATIONS, inside_fraction
 from evmap.sources.sensor_kinds import SensorSpec
 
-__all__ = ["RANGE_ARRAYS", "RANGE_CATEGORIES", "RangeSpec", "free_space", "range_features"]
+__all__ = ["MAX_RANGE_RAYS", "RANGE_ARRAYS", "RANGE_CATEGORIES", "RangeSpec", "free_space", "range_features"]
 
 Material = Annotated[str, Strict(), Field(min_length=1, max_length=200)]
 
@@ -52,6 +52,12 @@ RANGE_CATEGORIES: dict[str, tuple[str, ...] | None] = {
 
 SAMPLES = 9
 """Points along a segment tested against every reading for ``NAME_return``."""
+
+
+MAX_RANGE_RAYS = 2_000
+"""Most rays one range sensor casts per pose: ``beams`` x ``sweep_steps`` x ``rays``. One sensor of
+3,600 beams of 100 rays took 5 s and 0.5 GB per pose; 16 sensors (a config may declare that many) of
+10,000 rays each, 10 poses inside a ring of 1,000 wall segments, took 75 s (``benchmarks/bench_limits.py``)."""
 
 
 class RangeSpec(SensorSpec):
@@ -77,6 +83,25 @@ class RangeSpec(SensorSpec):
     outside_fraction: float = Field(0.01, ge=0, lt=1, description="`outside` if at most this share is free")
     rcd: RcdParams = RcdParams()
     open_space: OpenSpaceParams = OpenSpaceParams()
+
+    @model_validator(mode="after")
+    def _few_enough_rays(self) -> RangeSpec:
+        """Refuse a sensor casting more than :data:`MAX_RANGE_RAYS` rays per pose.
+
+        >>> RangeSpec(kind="range", beams=360, sweep_steps=10, rays=5)
+        Traceback (most recent call last):
+        ...
+        pydantic_core._pydantic_core.ValidationError: 1 validation error for RangeSpec
+          Value error, 360 beams x 10 sweep steps x 5 rays make 18000 rays per pose, more than the limit of 2000 [...]
+        ...
+        """
+        rays = self.beams * self.sweep_steps * self.rays
+        if rays > MAX_RANGE_RAYS:
+            raise ValueError(
+                f"{self.beams} beams x {self.sweep_steps} sweep steps x {self.rays} rays make {rays} rays per pose, "
+                f"more than the limit of {MAX_RANGE_RAYS}"
+            )
+        return self
 
     def beam_offsets(self) -> NDArray[np.float64]:
         """(B,) bearing of every reading from the heading (rad): beams times sweep steps, in reading order."""

@@ -17,8 +17,10 @@ import yaml
 
 from evmap import configs
 from evmap.sources.config import check_simulated_run, load_config
+from evmap.sources.detector import MAX_FALSE_ALARMS
 from evmap.sources.loading import MAX_DEPTH, MAX_FILE_BYTES, MAX_NODES, InputError, parse_document, read_document
-from evmap.sources.params import LslParams
+from evmap.sources.params import MAX_STRIPE_POINTS, LslParams, SonarParams
+from evmap.sources.range_sensor import MAX_RANGE_RAYS
 from evmap.sources.sim.lsl import observe_lsl_all
 from evmap.sources.sim.scenario import MAX_PHANTOMS_PER_RUN, MAX_SUNLIGHT_LINES, load_scenario, parse_scenario
 from evmap.sources.sim.world import World
@@ -78,7 +80,7 @@ def test_deep_nesting_is_refused_with_the_limit() -> None:
 
 
 def test_a_huge_value_is_never_written_out_in_a_message() -> None:
-    text = scenario_text(**{"name: corridor": "name: [" + ", ".join(["123456789"] * 100_000) + "]"})
+    text = scenario_text(**{"name: corridor": "name: [" + ", ".join(["123456789"] * 50_000) + "]"})
     with pytest.raises(InputError) as err:
         parse_scenario(text, "big.yaml")
     assert len(str(err.value)) < 300 and "name: Input should be a valid string" in str(err.value)
@@ -120,6 +122,54 @@ def test_phantom_line_counts_are_limited_whatever_their_type(lines: str) -> None
     text = yaml.safe_dump(data).replace("LINES", lines).replace("'", "")
     with pytest.raises(InputError, match=r"world\.sunlight: .* sunlight lines.*more than the limit of"):
         parse_scenario(text, "many.yaml")
+
+
+def test_an_lsl_scan_of_too_many_stripe_points_is_refused_with_its_key_path() -> None:
+    data = corridor_data()
+    data["sensors"]["lsl"] |= {"fov_deg": 180, "ray_step_deg": 0.05, "snapshots": 2}
+    with pytest.raises(
+        InputError,
+        match=rf"dense.yaml: sensors\.lsl: .*7202 stripe points per scan, more than the limit of {MAX_STRIPE_POINTS}",
+    ):
+        parse_scenario(yaml.safe_dump(data), "dense.yaml")
+    data["sensors"]["lsl"]["snapshots"] = 1
+    assert parse_scenario(yaml.safe_dump(data), "dense.yaml").sensors.lsl.snapshots == 1
+
+
+def test_a_scenario_lsl_over_a_config_lsl_is_checked_against_the_stripe_point_limit() -> None:
+    data = corridor_data()
+    data["sensors"]["lsl"] = {"ray_step_deg": 0.1}
+    scenario = parse_scenario(yaml.safe_dump(data), "fine.yaml")
+    with pytest.raises(InputError, match=r"scenario 'corridor': sensors\.lsl \(ray_step_deg\) over the config's"):
+        scenario.sensor_params(SonarParams(), LslParams(snapshots=20))
+
+
+@pytest.mark.parametrize(
+    ("example", "sensor", "change", "message"),
+    [
+        (
+            "infrared",
+            "ir",
+            {"beams": 3600, "rays": 100},
+            rf"3600 beams x 3 sweep steps x 100 rays make 1080000 rays per pose, more than the limit of {MAX_RANGE_RAYS}",
+        ),
+        (
+            "radar",
+            "radar",
+            {"max_range": 100.0, "false_alarms": [[0.0, 1000.0], [100.0, 1000.0]]},
+            rf"false_alarms: 100000 false reports expected per scan, more than the limit of {MAX_FALSE_ALARMS}",
+        ),
+    ],
+)
+def test_a_sensor_too_costly_to_simulate_is_refused_with_its_key_path(
+    tmp_path: Path, example: str, sensor: str, change: dict, message: str
+) -> None:
+    data = yaml.safe_load(configs.path(f"examples/{example}.yaml").read_text())
+    data["extra_sensors"][sensor] |= change
+    path = tmp_path / "costly.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(InputError, match=rf"costly.yaml: extra_sensors\.{sensor}: .*{message}"):
+        load_config(path)
 
 
 def test_phantoms_over_all_poses_are_limited() -> None:

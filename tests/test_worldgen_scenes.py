@@ -11,7 +11,13 @@ import shapely
 from hypothesis import given, settings
 
 from evmap.sources.params import SonarParams
-from evmap.sources.sim.scenario import MAX_PHANTOMS_PER_RUN, MAX_SUNLIGHT_LINES, MAX_SUNLIGHT_REGIONS, parse_scenario
+from evmap.sources.sim.scenario import (
+    MAX_PHANTOMS_PER_RUN,
+    MAX_POSES,
+    MAX_SUNLIGHT_LINES,
+    MAX_SUNLIGHT_REGIONS,
+    parse_scenario,
+)
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World, visible
 from evmap.sources.sim.worldgen import WorldGenParams, generate_world, scenario_yaml, world_seed
@@ -125,7 +131,7 @@ def test_clutter_is_small_real_and_clear_of_the_tour(worlds):
 def test_sunlight_within_limits_on_long_tours():
     """Many lit panes and many poses: the phantom lines are scaled down to the scenario limits."""
     params = WorldGenParams(
-        poses=(40, 50),
+        poses=(MAX_POSES - 2, MAX_POSES),
         single_pose_share=0,
         facade_share=1,
         sunlight_share=1,

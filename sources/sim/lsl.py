@@ -87,7 +87,7 @@ def stripe_scan(
     x, y, heading = np.asarray(pose, dtype=float)
     origin = np.array([x, y])
     half_fov = np.radians(params.fov_deg) / 2
-    rays = int(np.floor(params.fov_deg / params.ray_step_deg + 1e-9)) + 1
+    rays = params.stripe_rays
     centres = heading + np.radians(params.step_deg) * np.arange(params.snapshots)
     angles = centres[:, None] + np.linspace(-half_fov, half_fov, rays)
 

@@ -38,7 +38,7 @@ import shapely
 from pydantic import AfterValidator, Field, field_validator, model_validator
 
 from evmap import configs
-from evmap.sources.loading import load_model, parse_document
+from evmap.sources.loading import InputError, load_model, parse_document
 from evmap.sources.params import LslParams, SonarParams
 from evmap.sources.sim.spec import (
     MAX_COORDINATE,
@@ -313,11 +313,27 @@ class Scenario(SpecModel):
         >>> sonar, lsl = s.sensor_params(SonarParams(max_range=4), LslParams(range_noise=0.01))
         >>> sonar.max_range, lsl.max_range, lsl.range_noise
         (4.0, 5.0, 0.01)
+        >>> wide = parse_scenario('''
+        ... {version: 1, name: w, world: {walls: []}, robot: {poses: [[0, 0, 0]]}, sensors: {lsl: {fov_deg: 36}}}''', "w.yaml")
+        >>> wide.sensor_params(SonarParams(), LslParams(snapshots=30))
+        Traceback (most recent call last):
+        ...
+        evmap.sources.loading.InputError: scenario 'w': sensors.lsl (fov_deg) over the config's sensors.lsl: Value error, 30 snapshots of 181 stripe points (fov_deg / ray_step_deg + 1) make 5430 stripe points per scan, more than the limit of 5000
         """
         merged = []
-        for given, defaults in ((self.sensors.sonar, sonar_defaults), (self.sensors.lsl, lsl_defaults)):
+        for key, given, defaults in (
+            ("sonar", self.sensors.sonar, sonar_defaults),
+            ("lsl", self.sensors.lsl, lsl_defaults),
+        ):
             overrides = given.model_dump(include=given.model_fields_set & set(type(defaults).model_fields))
-            merged.append(type(defaults).model_validate({**defaults.model_dump(), **overrides}))
+            try:
+                merged.append(type(defaults).model_validate({**defaults.model_dump(), **overrides}))
+            except pydantic_core.ValidationError as exc:
+                problems = "; ".join(e["msg"] for e in exc.errors())
+                raise InputError(
+                    f"scenario {self.name!r}: sensors.{key} ({', '.join(sorted(overrides)) or 'no keys'}) "
+                    f"over the config's sensors.{key}: {problems}"
+                ) from None
         return merged[0], merged[1]
 
 

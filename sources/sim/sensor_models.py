@@ -132,12 +132,10 @@ def simulate_detector(
     shift = spec.position_noise * rng.standard_normal((len(points), 2))
     reports = points[detected] + shift[detected]
 
-    grid = np.linspace(0, spec.max_range, 201)
-    mid, width = (grid[1:] + grid[:-1]) / 2, np.diff(grid)
-    rate = np.maximum(np.interp(mid, *np.array(spec.false_alarms).T), 0) * width * spec.fov_deg / 360
+    grid, rate = spec.false_alarm_bins()
     n_false = rng.poisson(rate.sum())
     if n_false:
-        r = grid[rng.choice(len(mid), size=n_false, p=rate / rate.sum())] + width[0] * rng.random(n_false)
+        r = grid[rng.choice(len(rate), size=n_false, p=rate / rate.sum())] + (grid[1] - grid[0]) * rng.random(n_false)
         bearing = pose[2] + np.radians(spec.facing_deg + spec.fov_deg * (rng.random(n_false) - 0.5))
         reports = np.concatenate([reports, pose[:2] + r[:, None] * np.column_stack([np.cos(bearing), np.sin(bearing)])])
     return {"pose": pose.copy(), "points": reports.reshape(-1, 2)}

@@ -34,22 +34,29 @@ __all__ = [
     "Text",
 ]
 
-MAX_WALL_SEGMENTS = 200_000
-"""Most wall segments (consecutive point pairs, all polylines together) in a scenario."""
-MAX_CYLINDERS = 1_000
-"""Most cylinders in a scenario."""
+MAX_WALL_SEGMENTS = 1_000
+"""Most wall segments (consecutive point pairs, all polylines together) in a scenario. The sonar model's
+memory grows with the square of the segments in its range: a ring of 4,000 segments around a pose
+needs 2.6 GB, 10,000 more than 8 GB (``benchmarks/bench_limits.py``)."""
+MAX_CYLINDERS = 100
+"""Most cylinders in a scenario. The run's figures draw every cylinder in every pose's figures: 1,000
+cylinders seen from 10 poses took over 150 s with png figures (``benchmarks/bench_limits.py``)."""
 MAX_SUNLIGHT_REGIONS = 100
 """Most sunlight regions in a scenario."""
 MAX_SUNLIGHT_LINES_PER_REGION = 200
 """Most phantom lines one sunlight region makes per pose."""
 MAX_SUNLIGHT_LINES = 400
 """Most phantom lines all sunlight regions together make per pose."""
-MAX_PHANTOMS_PER_RUN = 2_000
-"""Most phantom lines over the whole run: poses times the phantom lines of all regions."""
-MAX_POLYGON_VERTICES = 1_000
-"""Most vertices of one sunlight polygon."""
-MAX_POSES = 50
-"""Most robot poses in a scenario."""
+MAX_PHANTOMS_PER_RUN = 400
+"""Most phantom lines over the whole run: poses times the phantom lines of all regions. Every pose's
+segments are judged against the readings of all poses, so the cost grows with poses times phantoms:
+2,000 phantoms seen from 10 poses took over 100 s under the default config."""
+MAX_POLYGON_VERTICES = 100
+"""Most vertices of one sunlight polygon (100 regions of 1,000 vertices took over 20 s to load)."""
+MAX_POSES = 10
+"""Most robot poses in a scenario. Every pose's segments are judged against the open space and readings of
+all poses: 50 poses around one sunlit patch took over 150 s under the default config, 20 poses inside a
+ring of 1,000 wall segments 46 s."""
 MAX_COORDINATE = 1e7
 """Largest absolute x or y (m): any UTM easting or northing."""
 MAX_HEADING_DEG = 360.0

@@ -161,7 +161,7 @@ def cap_lines(
     >>> square = shapely.box(0, 0, 1, 1)
     >>> [n for _, n in cap_lines([(square, 30), (square, 10)], WorldGenParams(sunlight_lines_total=20), 1)]
     [15, 5]
-    >>> [n for _, n in cap_lines([(square, 30)] * 3, WorldGenParams(), 50)]
+    >>> [n for _, n in cap_lines([(square, 30)] * 3, WorldGenParams(), 10)]
     [13, 13, 13]
     """
     cap = min(params.sunlight_lines_total, MAX_SUNLIGHT_LINES, MAX_PHANTOMS_PER_RUN // max(poses, 1))
