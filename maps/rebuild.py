@@ -67,9 +67,8 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     merged = merge_segments(store.p[pool], store.q[pool], config.merge, store.seen[pool])
     evidence = _merged_evidence(bm, pool, merged, config)
 
-    refits, fits, neighbours = _refits(bm, pool, merged, dissolved, config)
-    near = _line_ends(bm, neighbours, fits)
-    moves = [move for lid in fits for move in _end_moves(bm, lid, fits, near, config) or ()]
+    refits, fits, near = _refits(bm, pool, merged, dissolved, config)
+    moves = [move for found in _end_moves(bm, fits, near, config).values() for move in found or ()]
     for k, lid in refits.items():
         _refit_in_place(bm, lid, pool[merged.groups[k]], fits[lid], (merged, k), evidence, config)
         del dissolved[lid]
@@ -131,10 +130,10 @@ def _affected_points(
 
 def _refits(
     bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, dissolved: dict[str, tuple[str, str]], config: Config
-) -> tuple[dict[int, str], dict[str, NDArray[np.float64]], list[tuple[str, str]]]:
+) -> tuple[dict[int, str], dict[str, NDArray[np.float64]], _Near]:
     """The merged lines that only refit a line of the map (merged line -> the line it refits), the new
-    fit of each such line (its ends in the order of the line's end points), and the (line, point) pairs
-    near them (for :func:`_end_moves`).
+    fit of each such line (its ends in the order of the line's end points), and the line ends near them
+    (for :func:`_end_moves`).
 
     A merged line refits the map's line L when its members are all of L's
     members and segments of no line, its direction is within ``angle_deg`` of
@@ -150,7 +149,7 @@ def _refits(
     cos_tol = np.cos(np.radians(config.merge.angle_deg))
     move = min(config.merge.distance, config.corners.distance / 2)
     fits: dict[str, NDArray[np.float64]] = {}
-    lines: dict[str, int] = {}
+    lines_of: dict[str, int] = {}
     for k, group in enumerate(merged.groups):
         rows = pool[group]
         owners = set(store.line[rows].tolist()) - {""}
@@ -167,68 +166,76 @@ def _refits(
         u, v = old[1] - old[0], new[1] - new[0]
         cos = abs(float(u @ v)) / (np.hypot(*u) * np.hypot(*v))
         if np.hypot(*(new - old).T).max() <= move and cos >= cos_tol:
-            fits[lid], lines[lid] = new, k
+            fits[lid], lines_of[lid] = new, k
     if not fits:
-        return {}, fits, []
+        return {}, fits, _Near([], np.zeros((0, 2)), np.zeros((0, 2)))
     ends = np.concatenate(list(fits.values()))
     reach = 3 * config.corners.distance + move
     lo, hi = ends.min(axis=0) - reach, ends.max(axis=0) + reach
     points = [n for n in bm.near((*lo, *hi), "points") if g.nodes[n]["kind"] in SURFACE_KINDS]
     neighbours = [(d["id"], n) for n in points for _, _, d in g.edges(n, data=True)]
+    stored = np.array([g.edges[bm.ends(m)]["fit"] for m, _ in neighbours], dtype=float).reshape(-1, 2, 2)
+    end = np.array([bm.ends(m).index(n) for m, n in neighbours], dtype=np.intp)
+    rows: dict[str, list[int]] = {}
+    for i, (m, _) in enumerate(neighbours):
+        rows.setdefault(m, []).append(i)
     while True:  # a line follows its new fit only if the lines its ends meet can follow theirs
-        near = _line_ends(bm, neighbours, fits)
-        failed = {lid for lid in fits if _end_moves(bm, lid, fits, near, config) is None}
+        lines = stored.copy()
+        for lid, fit in fits.items():
+            lines[rows.get(lid, [])] = fit
+        d = lines[:, 1] - lines[:, 0]
+        near = _Near(neighbours, lines[np.arange(len(end)), end], d / np.hypot(*d.T)[:, None])
+        moves = _end_moves(bm, fits, near, config)
+        failed = {lid for lid, move in moves.items() if move is None}
         if not failed:
-            return {lines[lid]: lid for lid in fits}, fits, neighbours
+            return {lines_of[lid]: lid for lid in fits}, fits, near
         for lid in failed:
             del fits[lid]
 
 
-def _line_ends(
-    bm: BeliefMap, neighbours: list[tuple[str, str]], fits: dict[str, NDArray[np.float64]]
-) -> tuple[list[tuple[str, str]], NDArray[np.float64], NDArray[np.float64]]:
-    """The (line, point) pairs, the fit end of each line at its point and each line's unit direction (the
-    lines of ``fits`` with their new fits)."""
-    g = bm.graph
-    stored = [fits.get(m) for m, _ in neighbours]
-    lines = [
-        f if f is not None else np.asarray(g.edges[bm.ends(m)]["fit"], dtype=float)
-        for f, (m, _) in zip(stored, neighbours, strict=True)
-    ]
-    ends = np.array([f[bm.ends(m).index(n)] for f, (m, n) in zip(lines, neighbours, strict=True)]).reshape(-1, 2)
-    d = np.array([f[1] - f[0] for f in lines]).reshape(-1, 2)
-    return neighbours, ends, d / np.hypot(*d.T)[:, None]
+@dataclass(frozen=True)
+class _Near:
+    """The (line, point) pairs near refitted lines, the fit end of each line at its point, each line's unit
+    direction (refitted lines with their new fits)."""
+
+    pairs: list[tuple[str, str]]
+    ends: NDArray[np.float64]
+    u: NDArray[np.float64]
 
 
 def _end_moves(
-    bm: BeliefMap,
-    lid: str,
-    fits: dict[str, NDArray[np.float64]],
-    near: tuple[list[tuple[str, str]], NDArray[np.float64], NDArray[np.float64]],
-    config: Config,
-) -> list[tuple[str, tuple[float, float]]] | None:
-    """Where the end points of the line ``lid`` go when it takes its new fit (the lines of ``fits`` take
-    theirs): a free end onto its fit end, a corner of two lines to the midpoint of their fit ends; None if
-    the corners would change (an end meeting an end of ``near`` (:func:`_line_ends`) that it did not meet,
-    or leaving its corner's other line).
+    bm: BeliefMap, fits: dict[str, NDArray[np.float64]], near: _Near, config: Config
+) -> dict[str, list[tuple[str, tuple[float, float]]] | None]:
+    """Where the end points of each line of ``fits`` go when the lines take their new fits: a free end onto
+    its fit end, a corner of two lines to the midpoint of their fit ends; None for a line whose corners would
+    change (an end meeting an end of ``near`` that it did not meet, or leaving its corner's other line).
     """
     g = bm.graph
     cos_max = np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
-    pairs, their_end, their_u = near
-    own = fits[lid]
-    u = (own[1] - own[0]) / np.hypot(*(own[1] - own[0]))
-    moves = []
-    for e, node in enumerate(bm.ends(lid)):
-        end = own[e]
-        close = (np.hypot(*(their_end - end).T) <= config.corners.distance + 1e-9) & (np.abs(their_u @ u) <= cos_max)
-        meets = [pairs[i] for i in np.flatnonzero(close).tolist() if pairs[i][0] != lid]
-        if g.nodes[node]["kind"] == "endpoint" and not meets:
-            moves.append((node, (float(end[0]), float(end[1]))))
-        elif g.nodes[node]["kind"] == "corner" and g.degree(node) == 2 and len(meets) == 1 and meets[0][1] == node:
-            mid = (end + their_end[pairs.index(meets[0])]) / 2
-            moves.append((node, (float(mid[0]), float(mid[1]))))
-        else:
-            return None
+    lids = list(fits)
+    own = np.array([fits[lid] for lid in lids], dtype=float).reshape(-1, 2, 2)
+    u = own[:, 1] - own[:, 0]
+    u /= np.hypot(*u.T)[:, None]
+    ends = own.reshape(-1, 2)  # line k's end e is row 2k + e
+    dist = np.hypot(*(ends[:, None, :] - near.ends[None, :, :]).transpose(2, 0, 1))
+    across = np.abs(np.repeat(u, 2, axis=0) @ near.u.T) <= cos_max
+    close = (dist <= config.corners.distance + 1e-9) & across
+    moves: dict[str, list[tuple[str, tuple[float, float]]] | None] = {}
+    for k, lid in enumerate(lids):
+        found: list[tuple[str, tuple[float, float]]] | None = []
+        for e, node in enumerate(bm.ends(lid)):
+            end = ends[2 * k + e]
+            meets = [i for i in np.flatnonzero(close[2 * k + e]).tolist() if near.pairs[i][0] != lid]
+            kind = g.nodes[node]["kind"]
+            if kind == "endpoint" and not meets:
+                found.append((node, (float(end[0]), float(end[1]))))
+            elif kind == "corner" and g.degree(node) == 2 and len(meets) == 1 and near.pairs[meets[0]][1] == node:
+                mid = (end + near.ends[meets[0]]) / 2
+                found.append((node, (float(mid[0]), float(mid[1]))))
+            else:
+                found = None
+                break
+        moves[lid] = found
     return moves
 
 
