@@ -119,13 +119,22 @@ def _affected_points(
     if fresh:
         ends = np.concatenate([merged.p[fresh], merged.q[fresh]])
         reach = 2 * config.corners.distance + 1e-9
-        lo, hi = ends.min(axis=0) - reach, ends.max(axis=0) + reach
-        points = [n for n in bm.near((*lo, *hi), "points") if g.nodes[n]["kind"] in SURFACE_KINDS]
+        points = _surface_points_near(bm, ends, reach)
         if points:
             xy = np.array([g.nodes[n]["xy"] for n in points])
             d = np.hypot(*(xy[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)).min(axis=1)
             affected |= {points[i] for i in np.flatnonzero(d <= reach)}
     return affected
+
+
+def _surface_points_near(bm: BeliefMap, xy: NDArray[np.float64], reach: float) -> list[str]:
+    """The corners and end points (sorted) in the boxes reaching ``reach`` around each of the points ``xy``:
+    one small query per point, so the cost is what is near them however far apart they are."""
+    g = bm.graph
+    found: set[str] = set()
+    for x, y in xy.tolist():
+        found |= bm.near((x - reach, y - reach, x + reach, y + reach), "points")
+    return sorted(n for n in found if g.nodes[n]["kind"] in SURFACE_KINDS)
 
 
 def _refits(
@@ -170,9 +179,7 @@ def _refits(
     if not fits:
         return {}, fits, _Near([], np.zeros((0, 2)), np.zeros((0, 2)))
     ends = np.concatenate(list(fits.values()))
-    reach = 3 * config.corners.distance + move
-    lo, hi = ends.min(axis=0) - reach, ends.max(axis=0) + reach
-    points = [n for n in bm.near((*lo, *hi), "points") if g.nodes[n]["kind"] in SURFACE_KINDS]
+    points = _surface_points_near(bm, ends, 3 * config.corners.distance + move)
     neighbours = [(d["id"], n) for n in points for _, _, d in g.edges(n, data=True)]
     stored = np.array([g.edges[bm.ends(m)]["fit"] for m, _ in neighbours], dtype=float).reshape(-1, 2, 2)
     end = np.array([bm.ends(m).index(n) for m, n in neighbours], dtype=np.intp)
