@@ -46,6 +46,7 @@ from evmap.maps.map_file import GRAPH_KEYS, ID_PREFIXES, LINE_KEYS, LINE_KIND, P
 from evmap.maps.observation import Observation
 from evmap.maps.pipeline import PoseOutcome, fold_observation
 from evmap.maps.planner import Line, Point
+from evmap.maps.rebuild import NOISE_STAGE, running_of
 from evmap.maps.segments import SegmentStore
 from evmap.maps.spatial import Bounds, SpatialIndex
 from evmap.sources.config import Config, config_from_data
@@ -111,6 +112,7 @@ class BeliefMap:
         self._open_space: shapely.MultiPolygon | None = shapely.MultiPolygon()  # their union; None: not yet made
         self._indexes: dict[str, SpatialIndex] | None = None  # points, lines, obstacles; made on first use
         self._config: Config | None = None
+        self._running: dict[str, MassFunction | None] = {}  # id -> its running mass (see running_mass), where known
         self._undo: list[tuple[Any, ...]] | None = None  # inside a transaction: how to undo each change
         self._version = 0
         self._journal: list[tuple[int, str]] = []  # (version, id) of every object changed, oldest first
@@ -342,6 +344,7 @@ class BeliefMap:
         u, v = self._lines[id]
         self._record("removed line", id, u, v, self._graph.adj[u][v])
         self._graph.remove_edge(*self._lines.pop(id))
+        self._running.pop(id, None)
         if self._indexes is not None:
             self._indexes["lines"].remove(id)
         self._changed(id)
@@ -355,6 +358,7 @@ class BeliefMap:
             raise ValueError(f"point {id!r} still ends lines {ending}; remove them first")
         self._record("removed point", id, self._graph.nodes[id])
         self._graph.remove_node(id)
+        self._running.pop(id, None)
         if self._indexes is not None:
             self._indexes["points"].remove(id)
             if id in self._indexes["targets"]:
@@ -380,6 +384,8 @@ class BeliefMap:
             checked["kind"] = _kind(attrs["kind"], id)
         if "history" in attrs:
             checked["history"] = _history(attrs["history"], id)
+            if _evidence(checked["history"]) != _evidence(data["history"]):
+                self._running.pop(id, None)
         self._record("set", id, {k: data.get(k, _ABSENT) for k in checked})
         data.update(checked)
         if "xy" in checked or "kind" in checked:
@@ -412,8 +418,42 @@ class BeliefMap:
             {**record, "rule": self.rule, "conflict": conflict(data["mass"], mass), "mass": mass.to_dict()}
         )
         data["mass"] = combined
+        if id in self._running and record.get("stage") != NOISE_STAGE:
+            running = self._running[id]
+            self._running[id] = mass if running is None else combine(running, mass, rule=self.rule)
         self._changed(id)
         return combined
+
+    def running_mass(self, id: str) -> MassFunction | None:
+        """The combination by the map's rule of the masses of the object's evidence records (its history but
+        the noise-elimination records), in history order: ``(..((r1 + r2) + r3)..) + rn``; None if it has none.
+
+        It is kept as a running combination: :meth:`fold` combines one record more into it, so a line's mass
+        after a refit, ``first + running``, costs one combination however often the line was reinforced
+        (:mod:`evmap.maps.rebuild`). Under an associative rule (Dempster's, the conjunctive, Bayes...) that is
+        the history folded record by record, ``(..(first + r1)..) + rn``, up to rounding; under the others
+        (Yager's, PCR6...) it is what defines the mass of a rebuilt line or corner. Made from the history
+        the first time it is asked for (after a load, or a history set anew), then kept.
+
+        >>> from evidential import MassFunction
+        >>> bm = BeliefMap(["real", "noise"])
+        >>> bm.add_point("A", (0, 0), "corner", bm.vacuous())
+        >>> bm.running_mass("A") is None
+        True
+        >>> for p in (0.5, 0.4):
+        ...     _ = bm.fold("A", MassFunction(bm.frame, {"real": p, "real|noise": 1 - p}), {"pose": 0})
+        >>> round(bm.running_mass("A").belief("real"), 2), round(bm["A"].belief, 2)
+        (0.7, 0.7)
+        """
+        if id not in self._running:
+            self._running[id] = running_of(self._frame, _evidence(self._data(id)["history"]), self.rule)
+        return self._running[id]
+
+    def keep_running(self, id: str, running: MassFunction | None) -> None:
+        """Give the object ``id`` the running mass of its evidence records (:meth:`running_mass`), as the
+        caller has it: a rebuild carries it over from the line or corner whose records a new one takes on."""
+        self._data(id)
+        self._running[id] = None if running is None else self._check_mass(running, id)
 
     def new_id(self, prefix: str) -> str:
         """A fresh id for a new object: ``prefix`` (one of :data:`ID_PREFIXES`) and the next number."""
@@ -515,6 +555,7 @@ class BeliefMap:
         if poses is not None:
             g.graph["poses"] = poses
         self._indexes = None  # made again from the map as it is now
+        self._running.clear()  # made again from the histories when asked for
         self._version += 1
         self._journal.clear()
         self._journal_floor = self._version  # what was derived from the map is made anew
@@ -708,6 +749,11 @@ def _check_extras(attrs: Mapping[str, Any], reserved: tuple[str, ...], id: str) 
     if clash:
         raise ValueError(f"{id!r}: attributes {clash} are reserved")
     map_json.check_json(attrs, id)
+
+
+def _evidence(history: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The evidence records of a history: all but the noise-elimination ones."""
+    return [record for record in history if record.get("stage") != NOISE_STAGE]
 
 
 def _history(history: Iterable[Mapping[str, Any]], id: str) -> list[dict[str, Any]]:

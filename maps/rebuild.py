@@ -23,7 +23,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from evidential import MassFunction, combine
+from evidential import Frame, MassFunction, combine
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import Merged, merge_segments
 from evmap.maps.noise import NoiseEvidence, noise_evidence
@@ -34,13 +34,16 @@ from evmap.sources.config import Config
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["fold_records", "rebuild", "refresh_points"]
+__all__ = ["NOISE_STAGE", "rebuild", "refresh_points", "running_of", "with_running"]
+
+NOISE_STAGE = "noise_elimination"
+"""The stage of a line's first record, its noise-elimination evidence (not part of its running mass)."""
 
 SURFACE_KINDS = ("corner", "endpoint")
 """The kinds of points that end lines (an unidentified object ends none)."""
 
-Removed = list[tuple[tuple[float, float], list[dict[str, Any]]]]
-"""Removed corners: position and history of each."""
+Removed = list[tuple[tuple[float, float], list[dict[str, Any]], MassFunction | None]]
+"""Removed corners: position, history and running mass of each."""
 
 
 @dataclass
@@ -50,6 +53,7 @@ class _Line:
     fit: NDArray[np.float64]  # (2, 2): the ends as merged, before corners move them
     fixed: tuple[str | None, str | None]  # the point each end stays on, None: found anew
     data: dict[str, Any]  # id, mass, history, extras
+    running: MassFunction | None  # the running mass of its evidence records
 
 
 def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint: NDArray[np.float64]) -> set[str]:
@@ -76,7 +80,7 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
         bm.set_attrs(node, xy=xy)
     fresh = [k for k in range(len(merged.groups)) if k not in refits]
     affected = _affected_points(bm, dissolved, merged, fresh, config)
-    histories = {lid: g.edges[ends]["history"] for lid, ends in dissolved.items()}
+    histories = {lid: (g.edges[ends]["history"], bm.running_mass(lid)) for lid, ends in dissolved.items()}
     kept, removed = _detach(bm, dissolved, affected)
     lines = kept + _new_lines(bm, pool, merged, fresh, evidence, histories, config)
     store.line[touched[store.eliminated[touched]]] = ""
@@ -99,14 +103,29 @@ def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> No
         if d["kind"] == "endpoint":
             bm.set_attrs(n, mass=weakest)
         elif d["kind"] == "corner":
-            bm.set_attrs(n, mass=fold_records(weakest, d["history"], config.rule))
+            bm.set_attrs(n, mass=with_running(weakest, bm.running_mass(n), config.rule))
 
 
-def fold_records(mass: MassFunction, records: list[dict[str, Any]], rule: str) -> MassFunction:
-    """``mass`` with the records' masses (``{FOCAL: float}``) folded in one by one by ``rule``."""
+def running_of(frame: Frame, records: Iterable[dict[str, Any]], rule: str) -> MassFunction | None:
+    """The records' masses (``{FOCAL: float}``) combined by ``rule`` in order, ``(..(r1 + r2)..) + rn``;
+    None for no records (:meth:`~evmap.maps.belief_map.BeliefMap.running_mass`).
+
+    >>> from evidential import Frame
+    >>> frame = Frame(["real", "noise"])
+    >>> records = [{"mass": {"real": 0.5, "real|noise": 0.5}}, {"mass": {"real": 0.4, "real|noise": 0.6}}]
+    >>> running_of(frame, records, "dempster").to_dict(), running_of(frame, [], "dempster")
+    ({'real': 0.7, 'real|noise': 0.3}, None)
+    """
+    running = None
     for record in records:
-        mass = combine(mass, MassFunction.from_dict(mass.frame, record["mass"], open_world=True), rule=rule)
-    return mass
+        mass = MassFunction.from_dict(frame, record["mass"], open_world=True)
+        running = mass if running is None else combine(running, mass, rule=rule)
+    return running
+
+
+def with_running(mass: MassFunction, running: MassFunction | None, rule: str) -> MassFunction:
+    """``mass + running`` by ``rule`` (``mass`` itself where there are no records)."""
+    return mass if running is None else combine(mass, running, rule=rule)
 
 
 def _affected_points(
@@ -260,7 +279,8 @@ def _refit_in_place(
     history = bm.graph.edges[bm.ends(lid)]["history"]
     first, members = _merged_line(bm, lid, members, *line, evidence)
     records = history[1:]
-    mass = fold_records(MassFunction.from_dict(bm.frame, first["mass"], open_world=True), records, config.rule)
+    first_mass = MassFunction.from_dict(bm.frame, first["mass"], open_world=True)
+    mass = with_running(first_mass, bm.running_mass(lid), config.rule)
     bm.set_attrs(lid, mass=mass, history=[first, *records], members=members.tolist(), fit=fit.tolist())
 
 
@@ -276,10 +296,14 @@ def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[
         u, v = bm.ends(lid)
         d = g.edges[u, v]
         fixed = (None if u in affected else u, None if v in affected else v)
-        kept.append(_Line(np.array(d["fit"], dtype=float), fixed, dict(d)))
+        kept.append(_Line(np.array(d["fit"], dtype=float), fixed, dict(d), bm.running_mass(lid)))
     for lid in [line.data["id"] for line in kept] + list(dissolved):
         bm.remove_line(lid)
-    removed = [(g.nodes[n]["xy"], g.nodes[n]["history"]) for n in affected if g.nodes[n]["kind"] == "corner"]
+    removed = [
+        (g.nodes[n]["xy"], g.nodes[n]["history"], bm.running_mass(n))
+        for n in affected
+        if g.nodes[n]["kind"] == "corner"
+    ]
     for n in affected:
         bm.remove_point(n)
     return kept, removed
@@ -315,7 +339,7 @@ def _merged_line(
     store = bm.segments
     base, seen = evidence
     first = {
-        "stage": "noise_elimination",
+        "stage": NOISE_STAGE,
         "poses": sorted(set(store.pose[members].tolist())),
         "relation": str(base.relation[k]),
         "length": float(base.length[k]),
@@ -336,28 +360,28 @@ def _new_lines(
     merged: Merged,
     fresh: list[int],
     evidence: tuple[NoiseEvidence, NDArray[np.intp]],
-    histories: dict[str, list[dict[str, Any]]],
+    histories: dict[str, tuple[list[dict[str, Any]], MassFunction | None]],
     config: Config,
 ) -> list[_Line]:
     """The ``fresh`` merged lines: their noise-elimination evidence, and the sonar records of the lines they
-    replace."""
+    replace (history and running mass of each)."""
     store = bm.segments
     lines = []
     for k in fresh:
         members = pool[merged.groups[k]]
         replaced = set(store.line[members].tolist()) & set(histories)
-        records = _carried_records([histories[lid] for lid in sorted(replaced)])
+        records, running = _carried(bm, [histories[lid] for lid in sorted(replaced)], config)
         lid = bm.new_id("L")
         first, members = _merged_line(bm, lid, members, merged, k, evidence)
         first_mass = MassFunction.from_dict(bm.frame, first["mass"], open_world=True)
         data = {
             "id": lid,
-            "mass": fold_records(first_mass, records, config.rule),
+            "mass": with_running(first_mass, running, config.rule),
             "history": [first, *records],
             "members": members.tolist(),
             "reinforced": any(r["category"] == "matched" for r in records),
         }
-        lines.append(_Line(np.stack([merged.p[k], merged.q[k]]), (None, None), data))
+        lines.append(_Line(np.stack([merged.p[k], merged.q[k]]), (None, None), data, running))
     return lines
 
 
@@ -370,7 +394,7 @@ def _attach(
     fits = np.array([line.fit for line in lines]).reshape(-1, 2, 2)
     corners = find_corners(fits[:, 0], fits[:, 1], config.corners, viewpoint)
     end_point = {(i, e): line.fixed[e] for i, line in enumerate(lines) for e in (0, 1) if line.fixed[e] is not None}
-    removed_xy = np.array([pxy for pxy, _ in removed], dtype=float).reshape(-1, 2)
+    removed_xy = np.array([pxy for pxy, _, _ in removed], dtype=float).reshape(-1, 2)
     for k, ends in enumerate(corners.ends):
         pairs = [tuple(pair) for pair in ends.tolist()]
         if any(pair in end_point for pair in pairs):
@@ -378,12 +402,13 @@ def _attach(
         cid = bm.new_id("C")
         xy = corners.xy[k]
         close = np.hypot(*(removed_xy - xy).T) <= config.corners.distance
-        near = [removed[j][1] for j in np.flatnonzero(close).tolist()]
-        history = _carried_records(near)
+        near = [removed[j][1:] for j in np.flatnonzero(close).tolist()]
+        history, running = _carried(bm, near, config)
         reinforced = any(r["category"] == "matched" for r in history)
         bm.add_point(
             cid, xy, "corner", bm.vacuous(), history=history, shape=str(corners.shape[k]), reinforced=reinforced
         )
+        bm.keep_running(cid, running)
         for pair in pairs:
             end_point[pair] = cid
     added: set[str] = set()
@@ -398,6 +423,7 @@ def _attach(
         data = line.data
         extras = {k: v for k, v in data.items() if k not in ("id", "kind", "mass", "history", "fit")}
         bm.add_line(data["id"], *nodes, data["mass"], history=data["history"], fit=line.fit.tolist(), **extras)
+        bm.keep_running(data["id"], line.running)
         added.add(data["id"])
     return added
 
@@ -410,6 +436,17 @@ def _poses_seen(store: SegmentStore, rows: NDArray[np.intp]) -> int:
     """
     support = store.role[rows] == "support"
     return len(np.unique(store.pose[rows[~support]])) + int(store.seen[rows[support]].sum())
+
+
+def _carried(
+    bm: BeliefMap, replaced: list[tuple[list[dict[str, Any]], MassFunction | None]], config: Config
+) -> tuple[list[dict[str, Any]], MassFunction | None]:
+    """The sonar records carried over from replaced objects (history and running mass of each), and their
+    running mass: that of the one replaced object whose evidence records they are, else made from them."""
+    records = _carried_records([history for history, _ in replaced])
+    if len(replaced) == 1 and records == [r for r in replaced[0][0] if r.get("stage") != NOISE_STAGE]:
+        return records, replaced[0][1]
+    return records, running_of(bm.frame, records, config.rule)
 
 
 def _carried_records(histories: Iterable[list[dict[str, Any]]]) -> list[dict[str, Any]]:
