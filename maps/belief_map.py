@@ -17,7 +17,10 @@ fold observations ``config``, ``poses`` and ``next_id``.
 
 :class:`BeliefMap` is the data: the graph, its mutation and its ids, the open
 space in pieces, the raw segments (:attr:`BeliefMap.segments`) and spatial
-indexes kept up to date one change at a time (:meth:`BeliefMap.near`). Build and
+indexes kept up to date one change at a time (:meth:`BeliefMap.near`), each kept
+by a small object of its own module (:mod:`~evmap.maps.open_space_pieces`,
+:mod:`~evmap.maps.map_index`, :mod:`~evmap.maps.change_journal`,
+:mod:`~evmap.maps.undo_log`, :mod:`~evmap.maps.running_mass`). Build and
 change the map through its methods; :attr:`BeliefMap.graph` is for reading, by
 algorithms written as plain functions of a graph. Around it, free functions:
 the pipeline (:mod:`evmap.maps.pipeline`, :meth:`~BeliefMap.update`), the
@@ -28,7 +31,6 @@ planner's queries (:mod:`evmap.maps.planner`), the occupancy grid
 
 from __future__ import annotations
 
-import bisect
 import copy
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
@@ -42,13 +44,18 @@ from numpy.typing import NDArray
 
 from evidential import RULES, Frame, MassFunction, combine, conflict
 from evmap.maps import map_file, map_json, occupancy, planner
-from evmap.maps.map_file import GRAPH_KEYS, ID_PREFIXES, LINE_KEYS, LINE_KIND, POINT_KEYS, POINT_KINDS, MapParts
+from evmap.maps.change_journal import ChangeJournal
+from evmap.maps.map_checks import check_extras, checked_history, checked_kind
+from evmap.maps.map_file import GRAPH_KEYS, ID_PREFIXES, LINE_KEYS, LINE_KIND, POINT_KEYS, MapParts
+from evmap.maps.map_index import MapIndex
 from evmap.maps.observation import Observation
+from evmap.maps.open_space_pieces import OpenSpacePieces
 from evmap.maps.pipeline import PoseOutcome, fold_observation
 from evmap.maps.planner import Line, Point
-from evmap.maps.rebuild import NOISE_STAGE, running_of
+from evmap.maps.running_mass import RunningMasses
 from evmap.maps.segments import SegmentStore
-from evmap.maps.spatial import Bounds, SpatialIndex
+from evmap.maps.spatial import Bounds
+from evmap.maps.undo_log import ABSENT, UndoLog, undo
 from evmap.sources.config import Config, config_from_data
 
 __all__ = ["BeliefMap", "new_map"]
@@ -97,7 +104,7 @@ class BeliefMap:
             raise ValueError(f"frame must contain the element 'real' (beliefs are Bel({{real}})), got {frame!r}")
         if not isinstance(rule, str) or rule not in RULES:
             raise ValueError(f"rule must be one of {sorted(RULES)}, got {rule!r}")
-        _check_extras(attrs, GRAPH_KEYS, "graph")
+        check_extras(attrs, GRAPH_KEYS, "graph")
         self._frame = frame
         self._graph = nx.Graph(
             schema_version=map_file.SCHEMA_VERSION,
@@ -107,16 +114,12 @@ class BeliefMap:
             **attrs,
         )
         self._lines: dict[str, tuple[str, str]] = {}
-        self._spaces: list[shapely.Geometry] = []  # pieces whose union is the open space
-        self._space_index: SpatialIndex | None = None  # their boxes; made on first use, then kept
-        self._open_space: shapely.MultiPolygon | None = shapely.MultiPolygon()  # their union; None: not yet made
-        self._indexes: dict[str, SpatialIndex] | None = None  # points, lines, obstacles; made on first use
+        self._space = OpenSpacePieces()
+        self._index = MapIndex(self._graph, self._lines)
         self._config: Config | None = None
-        self._running: dict[str, MassFunction | None] = {}  # id -> its running mass (see running_mass), where known
-        self._undo: list[tuple[Any, ...]] | None = None  # inside a transaction: how to undo each change
-        self._version = 0
-        self._journal: list[tuple[int, str]] = []  # (version, id) of every object changed, oldest first
-        self._journal_floor = 0  # the journal tells the changes since this version on
+        self._running = RunningMasses()
+        self._undo = UndoLog()
+        self._journal = ChangeJournal()
         self.segments = SegmentStore.empty(frame)
         """The raw LSL segments behind the lines (:class:`evmap.maps.segments.SegmentStore`)."""
 
@@ -146,7 +149,7 @@ class BeliefMap:
     @property
     def version(self) -> int:
         """A number that changes whenever the map does: what is derived from the map is kept by it."""
-        return self._version
+        return self._journal.version
 
     def changed_since(self, version: int) -> set[str] | None:
         """The ids of the objects added, changed or removed since ``version``; None if the map no longer knows.
@@ -154,10 +157,7 @@ class BeliefMap:
         What is derived from the map (the planner's obstacle trees) catches up
         with these few objects instead of being made anew.
         """
-        if version < self._journal_floor:
-            return None
-        start = bisect.bisect_right(self._journal, (version, "\uffff"))
-        return {id for _, id in self._journal[start:]}
+        return self._journal.since(version)
 
     @property
     def poses(self) -> tuple[int, ...]:
@@ -226,38 +226,25 @@ class BeliefMap:
         replaces it), or add to it with :meth:`add_open_space`; the union is
         made when it is read, and :meth:`open_space_near` reads pieces near a box only.
         """
-        if self._open_space is None:
-            union = shapely.union_all(self._spaces)
-            self._open_space = union if isinstance(union, shapely.MultiPolygon) else map_json.as_multipolygon(union)
-            self._graph.graph["open_space"] = map_json.geojson(self._open_space)
-        return self._open_space
+        if not self._space.is_made():
+            self._graph.graph["open_space"] = map_json.geojson(self._space.union())
+        return self._space.union()
 
     @open_space.setter
     def open_space(self, geometry: shapely.Geometry | None) -> None:
         geometry = map_json.as_multipolygon(geometry)
-        self._spaces = list(geometry.geoms)
-        self._space_index = None
+        self._space.replace(geometry)
         self._graph.graph["open_space"] = map_json.geojson(geometry)
-        self._open_space = geometry
         self._changed()
 
     def add_open_space(self, geometry: shapely.Geometry) -> None:
         """Unite a (Multi)Polygon, one observation's open space say, with the map's open space."""
-        geometry = map_json.as_multipolygon(geometry)
-        for piece in geometry.geoms:
-            if self._space_index is not None:
-                self._space_index.insert(str(len(self._spaces)), piece.bounds)
-            self._spaces.append(piece)
-        self._open_space = None
+        self._space.add(geometry)
         self._changed()
 
     def open_space_near(self, bounds: Bounds) -> shapely.Geometry:
         """The open space within the box ``bounds``, and maybe some beyond it; costs what the box holds."""
-        if self._space_index is None:
-            keys = [str(k) for k in range(len(self._spaces))]
-            self._space_index = SpatialIndex.from_boxes(keys, shapely.bounds(self._spaces))
-        pieces = [self._spaces[int(k)] for k in self._space_index.query(bounds)]
-        return shapely.union_all(pieces) if pieces else shapely.MultiPolygon()
+        return self._space.near(bounds)
 
     # ----------------------------------------------------------------- spatial index
 
@@ -273,18 +260,11 @@ class BeliefMap:
         >>> sorted(bm.near((3.5, -0.5, 4.5, 0.5))), sorted(bm.near((3.5, -0.5, 4.5, 0.5), "lines"))
         (['B', 'L1'], ['L1'])
         """
-        ix = self._spatial()
-        if what == "all":
-            return ix["points"].query(bounds) | ix["lines"].query(bounds)
-        if what == "obstacles":
-            return ix["lines"].query(bounds) | ix["targets"].query(bounds)
-        if what in ("points", "lines"):
-            return ix[what].query(bounds)
-        raise ValueError(f"what must be 'points', 'lines', 'obstacles' or 'all', got {what!r}")
+        return self._index.near(bounds, what)
 
     def extent(self) -> Bounds:
         """A box holding every point the map has held (``(inf, inf, -inf, -inf)`` before the first)."""
-        return self._spatial()["points"].extent()
+        return self._index.extent()
 
     # ----------------------------------------------------------------- building
 
@@ -297,18 +277,18 @@ class BeliefMap:
         extra JSON-able attributes (``shape="concave"``, ``reinforced=True``...).
         """
         self._check_new_id(id)
-        _check_extras(attrs, POINT_KEYS, id)
+        check_extras(attrs, POINT_KEYS, id)
         self._graph.add_node(
             id,
             id=id,
             xy=planner.point(xy, id),
-            kind=_kind(kind, id),
+            kind=checked_kind(kind, id),
             mass=self._check_mass(mass, id),
-            history=_history(history, id),
+            history=checked_history(history, id),
             **attrs,
         )
-        self._index_point(id)
-        self._record("added point", id)
+        self._index.place_point(id)
+        self._undo.record("added point", id)
         self._changed(id)
 
     def add_line(
@@ -320,7 +300,7 @@ class BeliefMap:
         extra JSON-able attributes (``members=[...]``, ``reinforced=True``...).
         """
         self._check_new_id(id)
-        _check_extras(attrs, LINE_KEYS, id)
+        check_extras(attrs, LINE_KEYS, id)
         for end in (u, v):
             if end not in self._graph:
                 raise KeyError(f"line {id!r}: end point {end!r} is not a point of the map")
@@ -330,11 +310,10 @@ class BeliefMap:
             other = self._graph.edges[u, v]["id"]
             raise ValueError(f"line {id!r}: points {u!r} and {v!r} are already joined by {other!r}")
         mass = self._check_mass(mass, id)
-        self._graph.add_edge(u, v, id=id, kind=LINE_KIND, mass=mass, history=_history(history, id), **attrs)
+        self._graph.add_edge(u, v, id=id, kind=LINE_KIND, mass=mass, history=checked_history(history, id), **attrs)
         self._lines[id] = (u, v)
-        if self._indexes is not None:
-            self._indexes["lines"].insert(id, self._line_bounds(id))
-        self._record("added line", id)
+        self._index.place_line(id)
+        self._undo.record("added line", id)
         self._changed(id)
 
     def remove_line(self, id: str) -> None:
@@ -342,11 +321,10 @@ class BeliefMap:
         if id not in self._lines:
             raise KeyError(f"{id!r} is not a line of the map")
         u, v = self._lines[id]
-        self._record("removed line", id, u, v, self._graph.adj[u][v])
+        self._undo.record("removed line", id, u, v, self._graph.adj[u][v])
         self._graph.remove_edge(*self._lines.pop(id))
-        self._running.pop(id, None)
-        if self._indexes is not None:
-            self._indexes["lines"].remove(id)
+        self._running.drop(id)
+        self._index.remove_line(id)
         self._changed(id)
 
     def remove_point(self, id: str) -> None:
@@ -356,13 +334,10 @@ class BeliefMap:
         ending = sorted(d["id"] for _, _, d in self._graph.edges(id, data=True))
         if ending:
             raise ValueError(f"point {id!r} still ends lines {ending}; remove them first")
-        self._record("removed point", id, self._graph.nodes[id])
+        self._undo.record("removed point", id, self._graph.nodes[id])
         self._graph.remove_node(id)
-        self._running.pop(id, None)
-        if self._indexes is not None:
-            self._indexes["points"].remove(id)
-            if id in self._indexes["targets"]:
-                self._indexes["targets"].remove(id)
+        self._running.drop(id)
+        self._index.remove_point(id)
         self._changed(id)
 
     def set_attrs(self, id: str, /, **attrs: Any) -> None:
@@ -381,19 +356,17 @@ class BeliefMap:
         if "xy" in attrs:
             checked["xy"] = planner.point(attrs["xy"], id)
         if "kind" in attrs:
-            checked["kind"] = _kind(attrs["kind"], id)
+            checked["kind"] = checked_kind(attrs["kind"], id)
         if "history" in attrs:
-            checked["history"] = _history(attrs["history"], id)
-            if _evidence(checked["history"]) != _evidence(data["history"]):
-                self._running.pop(id, None)
-        self._record("set", id, {k: data.get(k, _ABSENT) for k in checked})
+            checked["history"] = checked_history(attrs["history"], id)
+            self._running.history_set(id, checked["history"], data["history"])
+        self._undo.record("set", id, {k: data.get(k, ABSENT) for k in checked})
         data.update(checked)
         if "xy" in checked or "kind" in checked:
-            self._index_point(id)
+            self._index.place_point(id)
         moved = [line["id"] for _, _, line in self._graph.edges(id, data=True)] if "xy" in checked else []
-        if self._indexes is not None:  # the point's lines moved with it
-            for line in moved:
-                self._indexes["lines"].insert(line, self._line_bounds(line))
+        for line in moved:  # the point's lines moved with it
+            self._index.place_line(line)
         self._changed(id, *moved)
 
     def fold(self, id: str, mass: MassFunction, record: Mapping[str, Any]) -> MassFunction:
@@ -413,27 +386,19 @@ class BeliefMap:
         mass = self._check_mass(mass, id)
         map_json.check_json(record, f"{id}: record")
         combined = combine(data["mass"], mass, rule=self.rule)
-        self._record("folded", id, data["mass"], len(data["history"]))
+        self._undo.record("folded", id, data["mass"], len(data["history"]))
         data["history"].append(
             {**record, "rule": self.rule, "conflict": conflict(data["mass"], mass), "mass": mass.to_dict()}
         )
         data["mass"] = combined
-        if id in self._running and record.get("stage") != NOISE_STAGE:
-            running = self._running[id]
-            self._running[id] = mass if running is None else combine(running, mass, rule=self.rule)
+        self._running.fold(id, mass, record, self.rule)
         self._changed(id)
         return combined
 
     def running_mass(self, id: str) -> MassFunction | None:
-        """The combination by the map's rule of the masses of the object's evidence records (its history but
-        the noise-elimination records), in history order: ``(..((r1 + r2) + r3)..) + rn``; None if it has none.
-
-        It is kept as a running combination: :meth:`fold` combines one record more into it, so a line's mass
-        after a refit, ``first + running``, costs one combination however often the line was reinforced
-        (:mod:`evmap.maps.rebuild`). Under an associative rule (Dempster's, the conjunctive, Bayes...) that is
-        the history folded record by record, ``(..(first + r1)..) + rn``, up to rounding; under the others
-        (Yager's, PCR6...) it is what defines the mass of a rebuilt line or corner. Made from the history
-        the first time it is asked for (after a load, or a history set anew), then kept.
+        """The running mass of the object's evidence records (:mod:`evmap.maps.running_mass`): their masses
+        combined by the map's rule in history order; None if it has none. :meth:`fold` combines one record
+        more into it; it is made from the history the first time it is asked for, then kept.
 
         >>> from evidential import MassFunction
         >>> bm = BeliefMap(["real", "noise"])
@@ -445,15 +410,13 @@ class BeliefMap:
         >>> round(bm.running_mass("A").belief("real"), 2), round(bm["A"].belief, 2)
         (0.7, 0.7)
         """
-        if id not in self._running:
-            self._running[id] = running_of(self._frame, _evidence(self._data(id)["history"]), self.rule)
-        return self._running[id]
+        return self._running.get(id, self._frame, self._data(id)["history"], self.rule)
 
     def keep_running(self, id: str, running: MassFunction | None) -> None:
         """Give the object ``id`` the running mass of its evidence records (:meth:`running_mass`), as the
         caller has it: a rebuild carries it over from the line or corner whose records a new one takes on."""
         self._data(id)
-        self._running[id] = None if running is None else self._check_mass(running, id)
+        self._running.keep(id, None if running is None else self._check_mass(running, id))
 
     def new_id(self, prefix: str) -> str:
         """A fresh id for a new object: ``prefix`` (one of :data:`ID_PREFIXES`) and the next number."""
@@ -495,74 +458,42 @@ class BeliefMap:
         >>> sorted(bm.graph.nodes)
         ['A']
         """
-        if self._undo is not None:  # already in one: the outer one decides
+        if self._undo.active:  # already in one: the outer one decides
             yield
             return
         g = self._graph.graph
         saved = (
             self.segments.checkpoint(),
-            len(self._spaces),
-            self._open_space,
+            len(self._space),
+            self._space.made_union(),
             g.get("open_space"),
             copy.deepcopy(g.get("next_id")),
             list(g.get("poses", [])) if "poses" in g else None,
         )
-        self._undo = []
+        self._undo.start()
         try:
             yield
         except BaseException:
             self._roll_back(saved)
             raise
         finally:
-            self._undo = None
+            self._undo.stop()
 
     def _roll_back(self, saved: tuple[Any, ...]) -> None:
         """Undo the changes of the transaction, newest first, and restore what was saved at its start."""
-        undo, self._undo = self._undo or [], None
-        g = self._graph
-        for change, id, *args in reversed(undo):
-            if change == "added line":
-                g.remove_edge(*self._lines.pop(id))
-            elif change == "added point":
-                g.remove_node(id)
-            elif change == "removed line":
-                u, v, data = args
-                g.add_edge(u, v)
-                g.adj[u][v].update(data)
-                self._lines[id] = (u, v)
-            elif change == "removed point":
-                g.add_node(id)
-                g.nodes[id].update(args[0])
-            elif change == "set":
-                data = self._data(id)
-                for key, value in args[0].items():
-                    if value is _ABSENT:
-                        data.pop(key, None)
-                    else:
-                        data[key] = value
-            elif change == "folded":
-                data = self._data(id)
-                data["mass"] = args[0]
-                del data["history"][args[1] :]
+        undo(self._undo.stop(), self._graph, self._lines, self._data)
         store, spaces, union, geojson, next_id, poses = saved
         self.segments.restore(store)
-        del self._spaces[spaces:]
-        self._space_index = None
-        self._open_space = union
-        g.graph["open_space"] = geojson
+        self._space.truncate(spaces, union)
+        g = self._graph.graph
+        g["open_space"] = geojson
         if next_id is not None:
-            g.graph["next_id"] = next_id
+            g["next_id"] = next_id
         if poses is not None:
-            g.graph["poses"] = poses
-        self._indexes = None  # made again from the map as it is now
+            g["poses"] = poses
+        self._index.reset()  # made again from the map as it is now
         self._running.clear()  # made again from the histories when asked for
-        self._version += 1
-        self._journal.clear()
-        self._journal_floor = self._version  # what was derived from the map is made anew
-
-    def _record(self, *change: Any) -> None:
-        if self._undo is not None:
-            self._undo.append(change)
+        self._journal.forget()  # what was derived from the map is made anew
 
     # ----------------------------------------------------------------- delegates
 
@@ -652,7 +583,7 @@ class BeliefMap:
             for (_, attrs), d in zip(g.nodes(data=True), parts.nodes, strict=True):  # in this order
                 attrs.update(d)
             g.add_edges_from([(u, v, d) for (u, v), d in zip(parts.ends, parts.edges, strict=True)])
-            bm._lines = dict(zip([d["id"] for d in parts.edges], parts.ends, strict=True))
+            bm._lines.update(zip([d["id"] for d in parts.edges], parts.ends, strict=True))
             return bm
 
     # ----------------------------------------------------------------- internals
@@ -678,52 +609,8 @@ class BeliefMap:
             return self._graph.nodes[id]
         raise KeyError(f"{id!r} is neither a point nor a line of the map")
 
-    def _spatial(self) -> dict[str, SpatialIndex]:
-        """The indexes of points, lines and unidentified points: made from the whole map on first use, then kept."""
-        if self._indexes is None:
-            g = self._graph
-            ids = list(g)
-            xy = np.array([xy for _, xy in g.nodes(data="xy")], dtype=np.float64).reshape(-1, 2)
-            target = np.array([kind == "unidentified" for _, kind in g.nodes(data="kind")], dtype=bool)
-            row = dict(zip(ids, range(len(ids)), strict=True))
-            ends = np.array([(row[u], row[v]) for u, v in self._lines.values()], dtype=np.intp).reshape(-1, 2)
-            p, q = xy[ends[:, 0]], xy[ends[:, 1]]
-            points = np.hstack([xy, xy])
-            self._indexes = {
-                "points": SpatialIndex.from_boxes(ids, points),
-                "lines": SpatialIndex.from_boxes(list(self._lines), np.hstack([np.minimum(p, q), np.maximum(p, q)])),
-                "targets": SpatialIndex.from_boxes([n for n, t in zip(ids, target.tolist()) if t], points[target]),
-            }
-        return self._indexes
-
-    def _index_point(self, id: str) -> None:
-        """Put the point ``id`` in the indexes (if made) at its place (new, moved or of a new kind)."""
-        if self._indexes is not None:
-            data = self._graph.nodes[id]
-            x, y = data["xy"]
-            self._indexes["points"].insert(id, (x, y, x, y))
-            targets = self._indexes["targets"]
-            if data["kind"] == "unidentified":
-                targets.insert(id, (x, y, x, y))
-            elif id in targets:
-                targets.remove(id)
-
-    def _line_bounds(self, id: str) -> Bounds:
-        u, v = self._lines[id]
-        (x0, y0), (x1, y1) = self._graph.nodes[u]["xy"], self._graph.nodes[v]["xy"]
-        return min(x0, x1), min(y0, y1), max(x0, x1), max(y0, y1)
-
     def _changed(self, *ids: str) -> None:
-        self._version += 1
-        self._journal.extend((self._version, id) for id in ids)
-        if len(self._journal) > 2 * len(self) + 4096:  # forget the older half
-            half = len(self._journal) // 2
-            self._journal_floor = self._journal[half - 1][0]
-            del self._journal[:half]
-
-
-_ABSENT = object()
-"""What an attribute that a transaction set had been: absent (undo deletes it)."""
+        self._journal.changed(*ids, keep=2 * len(self) + 4096)
 
 
 def new_map(config: Config) -> BeliefMap:
@@ -736,27 +623,3 @@ def new_map(config: Config) -> BeliefMap:
     return BeliefMap(
         config.frame, config.rule, config=config.to_data(), next_id=dict.fromkeys(ID_PREFIXES, 1), poses=[]
     )
-
-
-def _kind(kind: str, id: str) -> str:
-    if kind not in POINT_KINDS:
-        raise ValueError(f"{id!r}: kind must be one of {list(POINT_KINDS)}, got {kind!r}")
-    return kind
-
-
-def _check_extras(attrs: Mapping[str, Any], reserved: tuple[str, ...], id: str) -> None:
-    clash = sorted(set(attrs) & set(reserved))
-    if clash:
-        raise ValueError(f"{id!r}: attributes {clash} are reserved")
-    map_json.check_json(attrs, id)
-
-
-def _evidence(history: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The evidence records of a history: all but the noise-elimination ones."""
-    return [record for record in history if record.get("stage") != NOISE_STAGE]
-
-
-def _history(history: Iterable[Mapping[str, Any]], id: str) -> list[dict[str, Any]]:
-    records = [dict(record) for record in history]
-    map_json.check_json(records, f"{id}: history")
-    return records

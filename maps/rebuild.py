@@ -10,7 +10,10 @@ lines it replaces carries over, at most one record per pose and source. A line
 seen from more than :data:`~evmap.maps.segments.CONSOLIDATE_POSES` poses is
 consolidated into its merged support (:meth:`~evmap.maps.segments.SegmentStore.consolidate`),
 which stands for them in later rebuilds: a rebuild merges what is near the
-change, a few rows per line, however long the line has been seen.
+change, a few rows per line, however long the line has been seen. A merged
+line that only moves a map line refits it in place (:mod:`evmap.maps.refit`);
+masses carry the running masses of their sonar records
+(:mod:`evmap.maps.running_mass`), so nothing is folded again.
 """
 
 from __future__ import annotations
@@ -23,10 +26,12 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from evidential import Frame, MassFunction, combine
+from evidential import MassFunction
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import Merged, merge_segments
 from evmap.maps.noise import NoiseEvidence, noise_evidence
+from evmap.maps.refit import end_moves, refits, surface_points_near
+from evmap.maps.running_mass import NOISE_STAGE, evidence_records, running_of, with_running
 from evmap.maps.segments import CONSOLIDATE_POSES, SegmentStore
 from evmap.maps.sensed import kept_features
 from evmap.sources.config import Config
@@ -34,13 +39,7 @@ from evmap.sources.config import Config
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["NOISE_STAGE", "rebuild", "refresh_points", "running_of", "with_running"]
-
-NOISE_STAGE = "noise_elimination"
-"""The stage of a line's first record, its noise-elimination evidence (not part of its running mass)."""
-
-SURFACE_KINDS = ("corner", "endpoint")
-"""The kinds of points that end lines (an unidentified object ends none)."""
+__all__ = ["rebuild", "refresh_points"]
 
 Removed = list[tuple[tuple[float, float], list[dict[str, Any]], MassFunction | None]]
 """Removed corners: position, history and running mass of each."""
@@ -71,20 +70,20 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     merged = merge_segments(store.p[pool], store.q[pool], config.merge, store.seen[pool])
     evidence = _merged_evidence(bm, pool, merged, config)
 
-    refits, fits, near = _refits(bm, pool, merged, dissolved, config)
-    moves = [move for found in _end_moves(bm, fits, near, config).values() for move in found or ()]
-    for k, lid in refits.items():
+    refitted, fits, near = refits(bm, pool, merged, dissolved, config)
+    moves = [move for found in end_moves(bm, fits, near, config).values() for move in found or ()]
+    for k, lid in refitted.items():
         _refit_in_place(bm, lid, pool[merged.groups[k]], fits[lid], (merged, k), evidence, config)
         del dissolved[lid]
     for node, xy in moves:
         bm.set_attrs(node, xy=xy)
-    fresh = [k for k in range(len(merged.groups)) if k not in refits]
+    fresh = [k for k in range(len(merged.groups)) if k not in refitted]
     affected = _affected_points(bm, dissolved, merged, fresh, config)
     histories = {lid: (g.edges[ends]["history"], bm.running_mass(lid)) for lid, ends in dissolved.items()}
     kept, removed = _detach(bm, dissolved, affected)
     lines = kept + _new_lines(bm, pool, merged, fresh, evidence, histories, config)
     store.line[touched[store.eliminated[touched]]] = ""
-    return _attach(bm, lines, removed, viewpoint, config) | set(refits.values())
+    return _attach(bm, lines, removed, viewpoint, config) | set(refitted.values())
 
 
 def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> None:
@@ -106,28 +105,6 @@ def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> No
             bm.set_attrs(n, mass=with_running(weakest, bm.running_mass(n), config.rule))
 
 
-def running_of(frame: Frame, records: Iterable[dict[str, Any]], rule: str) -> MassFunction | None:
-    """The records' masses (``{FOCAL: float}``) combined by ``rule`` in order, ``(..(r1 + r2)..) + rn``;
-    None for no records (:meth:`~evmap.maps.belief_map.BeliefMap.running_mass`).
-
-    >>> from evidential import Frame
-    >>> frame = Frame(["real", "noise"])
-    >>> records = [{"mass": {"real": 0.5, "real|noise": 0.5}}, {"mass": {"real": 0.4, "real|noise": 0.6}}]
-    >>> running_of(frame, records, "dempster").to_dict(), running_of(frame, [], "dempster")
-    ({'real': 0.7, 'real|noise': 0.3}, None)
-    """
-    running = None
-    for record in records:
-        mass = MassFunction.from_dict(frame, record["mass"], open_world=True)
-        running = mass if running is None else combine(running, mass, rule=rule)
-    return running
-
-
-def with_running(mass: MassFunction, running: MassFunction | None, rule: str) -> MassFunction:
-    """``mass + running`` by ``rule`` (``mass`` itself where there are no records)."""
-    return mass if running is None else combine(mass, running, rule=rule)
-
-
 def _affected_points(
     bm: BeliefMap, dissolved: dict[str, tuple[str, str]], merged: Merged, fresh: list[int], config: Config
 ) -> set[str]:
@@ -138,131 +115,12 @@ def _affected_points(
     if fresh:
         ends = np.concatenate([merged.p[fresh], merged.q[fresh]])
         reach = 2 * config.corners.distance + 1e-9
-        points = _surface_points_near(bm, ends, reach)
+        points = surface_points_near(bm, ends, reach)
         if points:
             xy = np.array([g.nodes[n]["xy"] for n in points])
             d = np.hypot(*(xy[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)).min(axis=1)
             affected |= {points[i] for i in np.flatnonzero(d <= reach)}
     return affected
-
-
-def _surface_points_near(bm: BeliefMap, xy: NDArray[np.float64], reach: float) -> list[str]:
-    """The corners and end points (sorted) in the boxes reaching ``reach`` around each of the points ``xy``:
-    one small query per point, so the cost is what is near them however far apart they are."""
-    g = bm.graph
-    found: set[str] = set()
-    for x, y in xy.tolist():
-        found |= bm.near((x - reach, y - reach, x + reach, y + reach), "points")
-    return sorted(n for n in found if g.nodes[n]["kind"] in SURFACE_KINDS)
-
-
-def _refits(
-    bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, dissolved: dict[str, tuple[str, str]], config: Config
-) -> tuple[dict[int, str], dict[str, NDArray[np.float64]], _Near]:
-    """The merged lines that only refit a line of the map (merged line -> the line it refits), the new
-    fit of each such line (its ends in the order of the line's end points), and the line ends near them
-    (for :func:`_end_moves`).
-
-    A merged line refits the map's line L when its members are all of L's
-    members and segments of no line, its direction is within ``angle_deg`` of
-    L's fit and its ends within ``min(merge distance, corner distance / 2)`` of
-    L's, and each end of L can follow without the corners changing
-    (:func:`_end_moves`): a free end point meeting no other line's end, or a
-    corner of L and one other line whose end it still meets and no other (the
-    corner moves to the new midpoint). L then stays in place, moved onto the
-    merged line (:func:`_refit_in_place`), as a whole rebuild would find it.
-    """
-    store = bm.segments
-    g = bm.graph
-    cos_tol = np.cos(np.radians(config.merge.angle_deg))
-    move = min(config.merge.distance, config.corners.distance / 2)
-    fits: dict[str, NDArray[np.float64]] = {}
-    lines_of: dict[str, int] = {}
-    for k, group in enumerate(merged.groups):
-        rows = pool[group]
-        owners = set(store.line[rows].tolist()) - {""}
-        if len(owners) != 1:
-            continue
-        (lid,) = owners
-        data = g.edges[dissolved[lid]]
-        if not set(data["members"]) <= set(rows.tolist()):
-            continue
-        old = np.asarray(data["fit"], dtype=float)
-        new = np.stack([merged.p[k], merged.q[k]])
-        if np.hypot(*(new - old[::-1]).T).max() < np.hypot(*(new - old).T).max():
-            new = new[::-1]
-        u, v = old[1] - old[0], new[1] - new[0]
-        cos = abs(float(u @ v)) / (np.hypot(*u) * np.hypot(*v))
-        if np.hypot(*(new - old).T).max() <= move and cos >= cos_tol:
-            fits[lid], lines_of[lid] = new, k
-    if not fits:
-        return {}, fits, _Near([], np.zeros((0, 2)), np.zeros((0, 2)))
-    ends = np.concatenate(list(fits.values()))
-    points = _surface_points_near(bm, ends, 3 * config.corners.distance + move)
-    neighbours = [(d["id"], n) for n in points for _, _, d in g.edges(n, data=True)]
-    stored = np.array([g.edges[bm.ends(m)]["fit"] for m, _ in neighbours], dtype=float).reshape(-1, 2, 2)
-    end = np.array([bm.ends(m).index(n) for m, n in neighbours], dtype=np.intp)
-    rows: dict[str, list[int]] = {}
-    for i, (m, _) in enumerate(neighbours):
-        rows.setdefault(m, []).append(i)
-    while True:  # a line follows its new fit only if the lines its ends meet can follow theirs
-        lines = stored.copy()
-        for lid, fit in fits.items():
-            lines[rows.get(lid, [])] = fit
-        d = lines[:, 1] - lines[:, 0]
-        near = _Near(neighbours, lines[np.arange(len(end)), end], d / np.hypot(*d.T)[:, None])
-        moves = _end_moves(bm, fits, near, config)
-        failed = {lid for lid, move in moves.items() if move is None}
-        if not failed:
-            return {lines_of[lid]: lid for lid in fits}, fits, near
-        for lid in failed:
-            del fits[lid]
-
-
-@dataclass(frozen=True)
-class _Near:
-    """The (line, point) pairs near refitted lines, the fit end of each line at its point, each line's unit
-    direction (refitted lines with their new fits)."""
-
-    pairs: list[tuple[str, str]]
-    ends: NDArray[np.float64]
-    u: NDArray[np.float64]
-
-
-def _end_moves(
-    bm: BeliefMap, fits: dict[str, NDArray[np.float64]], near: _Near, config: Config
-) -> dict[str, list[tuple[str, tuple[float, float]]] | None]:
-    """Where the end points of each line of ``fits`` go when the lines take their new fits: a free end onto
-    its fit end, a corner of two lines to the midpoint of their fit ends; None for a line whose corners would
-    change (an end meeting an end of ``near`` that it did not meet, or leaving its corner's other line).
-    """
-    g = bm.graph
-    cos_max = np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
-    lids = list(fits)
-    own = np.array([fits[lid] for lid in lids], dtype=float).reshape(-1, 2, 2)
-    u = own[:, 1] - own[:, 0]
-    u /= np.hypot(*u.T)[:, None]
-    ends = own.reshape(-1, 2)  # line k's end e is row 2k + e
-    dist = np.hypot(*(ends[:, None, :] - near.ends[None, :, :]).transpose(2, 0, 1))
-    across = np.abs(np.repeat(u, 2, axis=0) @ near.u.T) <= cos_max
-    close = (dist <= config.corners.distance + 1e-9) & across
-    moves: dict[str, list[tuple[str, tuple[float, float]]] | None] = {}
-    for k, lid in enumerate(lids):
-        found: list[tuple[str, tuple[float, float]]] | None = []
-        for e, node in enumerate(bm.ends(lid)):
-            end = ends[2 * k + e]
-            meets = [i for i in np.flatnonzero(close[2 * k + e]).tolist() if near.pairs[i][0] != lid]
-            kind = g.nodes[node]["kind"]
-            if kind == "endpoint" and not meets:
-                found.append((node, (float(end[0]), float(end[1]))))
-            elif kind == "corner" and g.degree(node) == 2 and len(meets) == 1 and near.pairs[meets[0]][1] == node:
-                mid = (end + near.ends[meets[0]]) / 2
-                found.append((node, (float(mid[0]), float(mid[1]))))
-            else:
-                found = None
-                break
-        moves[lid] = found
-    return moves
 
 
 def _refit_in_place(
@@ -444,7 +302,7 @@ def _carried(
     """The sonar records carried over from replaced objects (history and running mass of each), and their
     running mass: that of the one replaced object whose evidence records they are, else made from them."""
     records = _carried_records([history for history, _ in replaced])
-    if len(replaced) == 1 and records == [r for r in replaced[0][0] if r.get("stage") != NOISE_STAGE]:
+    if len(replaced) == 1 and records == evidence_records(replaced[0][0]):
         return records, replaced[0][1]
     return records, running_of(bm.frame, records, config.rule)
 

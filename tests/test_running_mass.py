@@ -6,7 +6,7 @@ import pytest
 from evidential import MassFunction, combine
 from evmap import configs
 from evmap.maps.app.run import run_scenario
-from evmap.maps.rebuild import NOISE_STAGE, running_of
+from evmap.maps.running_mass import NOISE_STAGE, running_of
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import load_scenario
 
