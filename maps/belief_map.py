@@ -18,9 +18,9 @@ fold observations ``config``, ``poses`` and ``next_id``.
 :class:`BeliefMap` is the data: the graph, its mutation and its ids, the open
 space in pieces, the raw segments (:attr:`BeliefMap.segments`) and spatial
 indexes kept up to date one change at a time (:meth:`BeliefMap.near`), each kept
-by a small object of its own module (:mod:`~evmap.maps.open_space_pieces`,
-:mod:`~evmap.maps.map_index`, :mod:`~evmap.maps.change_journal`,
-:mod:`~evmap.maps.undo_log`, :mod:`~evmap.maps.running_mass`). Build and
+by a small object of its own module: the points and lines with their indexes,
+undo log, change journal and running masses (:mod:`~evmap.maps.map_objects`),
+the open space (:mod:`~evmap.maps.open_space_pieces`). Build and
 change the map through its methods; :attr:`BeliefMap.graph` is for reading, by
 algorithms written as plain functions of a graph. Around it, free functions:
 the pipeline (:mod:`evmap.maps.pipeline`, :meth:`~BeliefMap.update`), the
@@ -31,7 +31,6 @@ planner's queries (:mod:`evmap.maps.planner`), the occupancy grid
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
@@ -42,20 +41,18 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from evidential import RULES, Frame, MassFunction, combine, conflict
+from evidential import RULES, Frame, MassFunction
 from evmap.maps import map_file, map_json, occupancy, planner
-from evmap.maps.change_journal import ChangeJournal
-from evmap.maps.map_checks import check_extras, checked_history, checked_kind
-from evmap.maps.map_file import GRAPH_KEYS, ID_PREFIXES, LINE_KEYS, LINE_KIND, POINT_KEYS, MapParts
-from evmap.maps.map_index import MapIndex
+from evmap.maps.all_or_nothing import all_or_nothing
+from evmap.maps.map_checks import check_extras
+from evmap.maps.map_file import GRAPH_KEYS, ID_PREFIXES, MapParts
+from evmap.maps.map_objects import MapObjects
 from evmap.maps.observation import Observation
 from evmap.maps.open_space_pieces import OpenSpacePieces
 from evmap.maps.pipeline import PoseOutcome, fold_observation
 from evmap.maps.planner import Line, Point
-from evmap.maps.running_mass import RunningMasses
 from evmap.maps.segments import SegmentStore
 from evmap.maps.spatial import Bounds
-from evmap.maps.undo_log import ABSENT, UndoLog, undo
 from evmap.sources.config import Config, config_from_data
 
 __all__ = ["BeliefMap", "new_map"]
@@ -113,13 +110,10 @@ class BeliefMap:
             open_space=map_json.geojson(shapely.MultiPolygon()),
             **attrs,
         )
-        self._lines: dict[str, tuple[str, str]] = {}
+        self._objects = MapObjects(self._graph, frame)
+        self._lines = self._objects.lines  # id -> end points
         self._space = OpenSpacePieces()
-        self._index = MapIndex(self._graph, self._lines)
         self._config: Config | None = None
-        self._running = RunningMasses()
-        self._undo = UndoLog()
-        self._journal = ChangeJournal()
         self.segments = SegmentStore.empty(frame)
         """The raw LSL segments behind the lines (:class:`evmap.maps.segments.SegmentStore`)."""
 
@@ -149,7 +143,7 @@ class BeliefMap:
     @property
     def version(self) -> int:
         """A number that changes whenever the map does: what is derived from the map is kept by it."""
-        return self._journal.version
+        return self._objects.journal.version
 
     def changed_since(self, version: int) -> set[str] | None:
         """The ids of the objects added, changed or removed since ``version``; None if the map no longer knows.
@@ -157,7 +151,7 @@ class BeliefMap:
         What is derived from the map (the planner's obstacle trees) catches up
         with these few objects instead of being made anew.
         """
-        return self._journal.since(version)
+        return self._objects.journal.since(version)
 
     @property
     def poses(self) -> tuple[int, ...]:
@@ -177,21 +171,15 @@ class BeliefMap:
         return self._config
 
     def __contains__(self, id: object) -> bool:
-        return id in self._lines or id in self._graph
+        return id in self._objects
 
     def __len__(self) -> int:
         """The number of objects: points and lines."""
-        return self._graph.number_of_nodes() + len(self._lines)
+        return len(self._objects)
 
     def __getitem__(self, id: str) -> Line | Point:
         """The line or point ``id`` as the planner sees it (with its belief)."""
-        data = self._data(id)
-        mass = data["mass"]
-        bel, pl = mass.belief("real"), mass.plausibility("real")
-        if id in self._lines:
-            u, v = self._lines[id]
-            return Line(id, u, v, self._graph.nodes[u]["xy"], self._graph.nodes[v]["xy"], mass, bel, pl)
-        return Point(id, data["xy"], data["kind"], mass, bel, pl)
+        return self._objects.view(id)
 
     def is_line(self, id: str) -> bool:
         """True if ``id`` is a line of the map."""
@@ -210,7 +198,7 @@ class BeliefMap:
 
     def mass(self, id: str) -> MassFunction:
         """The mass function of the object ``id``."""
-        return self._data(id)["mass"]
+        return self._objects.data(id)["mass"]
 
     def vacuous(self) -> MassFunction:
         """The vacuous mass function over the map's frame (all mass on the whole frame)."""
@@ -260,187 +248,65 @@ class BeliefMap:
         >>> sorted(bm.near((3.5, -0.5, 4.5, 0.5))), sorted(bm.near((3.5, -0.5, 4.5, 0.5), "lines"))
         (['B', 'L1'], ['L1'])
         """
-        return self._index.near(bounds, what)
+        return self._objects.index.near(bounds, what)
 
     def extent(self) -> Bounds:
         """A box holding every point the map has held (``(inf, inf, -inf, -inf)`` before the first)."""
-        return self._index.extent()
+        return self._objects.index.extent()
 
     # ----------------------------------------------------------------- building
 
     def add_point(
         self, id: str, xy: Iterable[float], kind: str, mass: MassFunction, history: Iterable[Mapping] = (), **attrs: Any
     ) -> None:
-        """Add a point (node) ``id`` at ``xy`` of ``kind`` (corner, endpoint, unidentified).
-
-        ``history`` is the list of evidence records so far (copied); ``attrs`` are
-        extra JSON-able attributes (``shape="concave"``, ``reinforced=True``...).
-        """
-        self._check_new_id(id)
-        check_extras(attrs, POINT_KEYS, id)
-        self._graph.add_node(
-            id,
-            id=id,
-            xy=planner.point(xy, id),
-            kind=checked_kind(kind, id),
-            mass=self._check_mass(mass, id),
-            history=checked_history(history, id),
-            **attrs,
-        )
-        self._index.place_point(id)
-        self._undo.record("added point", id)
-        self._changed(id)
+        """Add a point ``id`` at ``xy`` of ``kind`` (corner, endpoint, unidentified) (:class:`MapObjects`)."""
+        self._objects.add_point(id, xy, kind, mass, history, **attrs)
 
     def add_line(
         self, id: str, u: str, v: str, mass: MassFunction, history: Iterable[Mapping] = (), **attrs: Any
     ) -> None:
-        """Add a line (edge) ``id`` from point ``u`` to point ``v`` (two existing, different points).
-
-        ``history`` is the list of evidence records so far (copied); ``attrs`` are
-        extra JSON-able attributes (``members=[...]``, ``reinforced=True``...).
-        """
-        self._check_new_id(id)
-        check_extras(attrs, LINE_KEYS, id)
-        for end in (u, v):
-            if end not in self._graph:
-                raise KeyError(f"line {id!r}: end point {end!r} is not a point of the map")
-        if u == v:
-            raise ValueError(f"line {id!r}: needs two different end points, got {u!r} twice")
-        if self._graph.has_edge(u, v):
-            other = self._graph.edges[u, v]["id"]
-            raise ValueError(f"line {id!r}: points {u!r} and {v!r} are already joined by {other!r}")
-        mass = self._check_mass(mass, id)
-        self._graph.add_edge(u, v, id=id, kind=LINE_KIND, mass=mass, history=checked_history(history, id), **attrs)
-        self._lines[id] = (u, v)
-        self._index.place_line(id)
-        self._undo.record("added line", id)
-        self._changed(id)
+        """Add a line ``id`` from point ``u`` to point ``v`` (:class:`MapObjects`)."""
+        self._objects.add_line(id, u, v, mass, history, **attrs)
 
     def remove_line(self, id: str) -> None:
-        """Remove the line ``id`` (its end points stay)."""
-        if id not in self._lines:
-            raise KeyError(f"{id!r} is not a line of the map")
-        u, v = self._lines[id]
-        self._undo.record("removed line", id, u, v, self._graph.adj[u][v])
-        self._graph.remove_edge(*self._lines.pop(id))
-        self._running.drop(id)
-        self._index.remove_line(id)
-        self._changed(id)
+        """Remove the line ``id`` (its end points stay) (:class:`MapObjects`)."""
+        self._objects.remove_line(id)
 
     def remove_point(self, id: str) -> None:
-        """Remove the point ``id``; it must end no line (remove those first)."""
-        if id not in self._graph:
-            raise KeyError(f"{id!r} is not a point of the map")
-        ending = sorted(d["id"] for _, _, d in self._graph.edges(id, data=True))
-        if ending:
-            raise ValueError(f"point {id!r} still ends lines {ending}; remove them first")
-        self._undo.record("removed point", id, self._graph.nodes[id])
-        self._graph.remove_node(id)
-        self._running.drop(id)
-        self._index.remove_point(id)
-        self._changed(id)
+        """Remove the point ``id``, which must end no line (:class:`MapObjects`)."""
+        self._objects.remove_point(id)
 
     def set_attrs(self, id: str, /, **attrs: Any) -> None:
-        """Set attributes of the object ``id`` (``mass``, ``xy``, ``kind`` of a point, extras).
-
-        ``id`` cannot change (remove and add instead), nor a line's kind.
-        """
-        data = self._data(id)
-        is_line = id in self._lines
-        if "id" in attrs or (is_line and ({"kind", "xy", "source", "target"} & set(attrs))):
-            raise ValueError(f"{id!r}: cannot set {sorted(attrs)}: id, and a line's kind and ends, are fixed")
-        checked = dict(attrs)
-        map_json.check_json({k: v for k, v in attrs.items() if k not in ("mass", "xy")}, id)
-        if "mass" in attrs:
-            checked["mass"] = self._check_mass(attrs["mass"], id)
-        if "xy" in attrs:
-            checked["xy"] = planner.point(attrs["xy"], id)
-        if "kind" in attrs:
-            checked["kind"] = checked_kind(attrs["kind"], id)
-        if "history" in attrs:
-            checked["history"] = checked_history(attrs["history"], id)
-            self._running.history_set(id, checked["history"], data["history"])
-        self._undo.record("set", id, {k: data.get(k, ABSENT) for k in checked})
-        data.update(checked)
-        if "xy" in checked or "kind" in checked:
-            self._index.place_point(id)
-        moved = [line["id"] for _, _, line in self._graph.edges(id, data=True)] if "xy" in checked else []
-        for line in moved:  # the point's lines moved with it
-            self._index.place_line(line)
-        self._changed(id, *moved)
+        """Set attributes of the object ``id`` (``mass``, ``xy``, ``kind`` of a point, extras) (:class:`MapObjects`)."""
+        self._objects.set_attrs(id, **attrs)
 
     def fold(self, id: str, mass: MassFunction, record: Mapping[str, Any]) -> MassFunction:
-        """Combine new evidence into the object's mass by the map's rule; log it in the history.
-
-        The record (JSON-able: pose, sensor, source...) is appended to the
-        object's ``history`` with ``rule``, ``conflict`` (K between the stored and
-        the new mass) and ``mass`` (the new evidence as ``{FOCAL: float}``).
-
-        Returns
-        -------
-        The combined mass, now stored. Under Dempster's rule, evidence in total
-        conflict with the stored mass raises :class:`evidential.TotalConflictError`
-        and changes nothing.
-        """
-        data = self._data(id)
-        mass = self._check_mass(mass, id)
-        map_json.check_json(record, f"{id}: record")
-        combined = combine(data["mass"], mass, rule=self.rule)
-        self._undo.record("folded", id, data["mass"], len(data["history"]))
-        data["history"].append(
-            {**record, "rule": self.rule, "conflict": conflict(data["mass"], mass), "mass": mass.to_dict()}
-        )
-        data["mass"] = combined
-        self._running.fold(id, mass, record, self.rule)
-        self._changed(id)
-        return combined
+        """Combine new evidence into the object's mass by the map's rule and log it (:class:`MapObjects`)."""
+        return self._objects.fold(id, mass, record)
 
     def running_mass(self, id: str) -> MassFunction | None:
-        """The running mass of the object's evidence records (:mod:`evmap.maps.running_mass`): their masses
-        combined by the map's rule in history order; None if it has none. :meth:`fold` combines one record
-        more into it; it is made from the history the first time it is asked for, then kept.
-
-        >>> from evidential import MassFunction
-        >>> bm = BeliefMap(["real", "noise"])
-        >>> bm.add_point("A", (0, 0), "corner", bm.vacuous())
-        >>> bm.running_mass("A") is None
-        True
-        >>> for p in (0.5, 0.4):
-        ...     _ = bm.fold("A", MassFunction(bm.frame, {"real": p, "real|noise": 1 - p}), {"pose": 0})
-        >>> round(bm.running_mass("A").belief("real"), 2), round(bm["A"].belief, 2)
-        (0.7, 0.7)
-        """
-        return self._running.get(id, self._frame, self._data(id)["history"], self.rule)
+        """The running mass of the object's evidence records, ``None`` if it has none (:class:`MapObjects`)."""
+        return self._objects.running_mass(id)
 
     def keep_running(self, id: str, running: MassFunction | None) -> None:
-        """Give the object ``id`` the running mass of its evidence records (:meth:`running_mass`), as the
-        caller has it: a rebuild carries it over from the line or corner whose records a new one takes on."""
-        self._data(id)
-        self._running.keep(id, None if running is None else self._check_mass(running, id))
+        """Give ``id`` the running mass of its evidence records as the caller has it (:class:`MapObjects`)."""
+        self._objects.keep_running(id, running)
 
     def new_id(self, prefix: str) -> str:
         """A fresh id for a new object: ``prefix`` (one of :data:`ID_PREFIXES`) and the next number."""
-        counters = self._graph.graph.setdefault("next_id", dict.fromkeys(ID_PREFIXES, 1))
-        n = counters[prefix]
-        while f"{prefix}{n}" in self:  # ids taken by hand stay taken
-            n += 1
-        counters[prefix] = n + 1
-        return f"{prefix}{n}"
+        return self._objects.new_id(prefix)
 
     def add_pose(self, pose_index: int) -> None:
         """Record that the observation of ``pose_index`` is folded into the map (once per pose)."""
-        poses = self._graph.graph.setdefault("poses", [])
-        if pose_index in poses:
-            raise ValueError(f"pose {pose_index} is already folded into this map")
-        poses.append(int(pose_index))
-        self._changed()
+        self._objects.add_pose(pose_index)
 
     # ----------------------------------------------------------------- all or nothing
 
     @contextmanager
     def transaction(self) -> Iterator[None]:
-        """Changes that happen all or not at all: on any exception inside the block the map is put back as it
-        was (its objects, their attributes and histories, segments, open space, ids and poses), then it is raised.
+        """Changes that happen all or not at all (:func:`evmap.maps.all_or_nothing.all_or_nothing`): on any
+        exception inside the block the map is put back as it was (its objects, their attributes and histories,
+        segments, open space, ids and poses), then it is raised.
 
         :meth:`update` runs in one. Objects put back may come after the others in iteration order.
 
@@ -458,42 +324,8 @@ class BeliefMap:
         >>> sorted(bm.graph.nodes)
         ['A']
         """
-        if self._undo.active:  # already in one: the outer one decides
+        with all_or_nothing(self._objects, self._space, self.segments, self._graph):
             yield
-            return
-        g = self._graph.graph
-        saved = (
-            self.segments.checkpoint(),
-            len(self._space),
-            self._space.made_union(),
-            g.get("open_space"),
-            copy.deepcopy(g.get("next_id")),
-            list(g.get("poses", [])) if "poses" in g else None,
-        )
-        self._undo.start()
-        try:
-            yield
-        except BaseException:
-            self._roll_back(saved)
-            raise
-        finally:
-            self._undo.stop()
-
-    def _roll_back(self, saved: tuple[Any, ...]) -> None:
-        """Undo the changes of the transaction, newest first, and restore what was saved at its start."""
-        undo(self._undo.stop(), self._graph, self._lines, self._data)
-        store, spaces, union, geojson, next_id, poses = saved
-        self.segments.restore(store)
-        self._space.truncate(spaces, union)
-        g = self._graph.graph
-        g["open_space"] = geojson
-        if next_id is not None:
-            g["next_id"] = next_id
-        if poses is not None:
-            g["poses"] = poses
-        self._index.reset()  # made again from the map as it is now
-        self._running.clear()  # made again from the histories when asked for
-        self._journal.forget()  # what was derived from the map is made anew
 
     # ----------------------------------------------------------------- delegates
 
@@ -578,39 +410,13 @@ class BeliefMap:
                 bm.segments = parts.segments
             if parts.open_space is not None:
                 bm.open_space = parts.open_space
-            g = bm._graph
-            g.add_nodes_from([d["id"] for d in parts.nodes])
-            for (_, attrs), d in zip(g.nodes(data=True), parts.nodes, strict=True):  # in this order
-                attrs.update(d)
-            g.add_edges_from([(u, v, d) for (u, v), d in zip(parts.ends, parts.edges, strict=True)])
-            bm._lines.update(zip([d["id"] for d in parts.edges], parts.ends, strict=True))
+            bm._objects.fill(parts.nodes, parts.ends, parts.edges)
             return bm
 
     # ----------------------------------------------------------------- internals
 
-    def _check_new_id(self, id: str) -> None:
-        if not isinstance(id, str) or not id:
-            raise ValueError(f"an object id must be a non-empty string, got {id!r}")
-        if id in self:
-            raise ValueError(f"id {id!r} is already used by an object of the map")
-
-    def _check_mass(self, mass: MassFunction, id: str) -> MassFunction:
-        if not isinstance(mass, MassFunction):
-            raise TypeError(f"{id!r}: mass must be a MassFunction, got {type(mass).__name__}")
-        if mass.frame != self._frame:
-            raise ValueError(f"{id!r}: mass is over {mass.frame!r}, the map's frame is {self._frame!r}")
-        return mass
-
-    def _data(self, id: str) -> dict[str, Any]:
-        if id in self._lines:
-            u, v = self._lines[id]
-            return self._graph.adj[u][v]
-        if id in self._graph:
-            return self._graph.nodes[id]
-        raise KeyError(f"{id!r} is neither a point nor a line of the map")
-
     def _changed(self, *ids: str) -> None:
-        self._journal.changed(*ids, keep=2 * len(self) + 4096)
+        self._objects.changed(*ids)
 
 
 def new_map(config: Config) -> BeliefMap:
