@@ -30,7 +30,7 @@ from evidential import MassFunction
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import Merged, merge_segments
 from evmap.maps.noise import NoiseEvidence, noise_evidence
-from evmap.maps.refit import end_moves, refits, surface_points_near
+from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, surface_points_near
 from evmap.maps.running_mass import NOISE_STAGE, evidence_records, running_of, with_running
 from evmap.maps.segments import CONSOLIDATE_POSES, SegmentStore
 from evmap.maps.sensed import kept_features
@@ -76,7 +76,8 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
         _refit_in_place(bm, lid, pool[merged.groups[k]], fits[lid], (merged, k), evidence, config)
         del dissolved[lid]
     for node, xy in moves:
-        bm.set_attrs(node, xy=xy)
+        if bm.graph.nodes[node]["xy"] != xy:
+            bm.set_attrs(node, xy=xy)
     fresh = [k for k in range(len(merged.groups)) if k not in refitted]
     affected = _affected_points(bm, dissolved, merged, fresh, config)
     histories = {lid: (g.edges[ends]["history"], bm.running_mass(lid)) for lid, ends in dissolved.items()}
@@ -99,10 +100,10 @@ def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> No
         d = g.nodes[n]
         masses = [e["mass"] for _, _, e in g.edges(n, data=True)]
         weakest = min(masses, key=lambda m: m.belief(real)) if masses else bm.vacuous()
-        if d["kind"] == "endpoint":
-            bm.set_attrs(n, mass=weakest)
-        elif d["kind"] == "corner":
-            bm.set_attrs(n, mass=with_running(weakest, bm.running_mass(n), config.rule))
+        if d["kind"] in SURFACE_KINDS:
+            mass = weakest if d["kind"] == "endpoint" else with_running(weakest, bm.running_mass(n), config.rule)
+            if not _same(d, {"mass": mass}):
+                bm.set_attrs(n, mass=mass)
 
 
 def _affected_points(
@@ -134,12 +135,22 @@ def _refit_in_place(
 ) -> None:
     """The line ``lid`` takes the merged line's members, support, noise-elimination evidence and ``fit``
     (its end points are moved by the caller); its sonar records stay."""
-    history = bm.graph.edges[bm.ends(lid)]["history"]
+    data = bm.graph.edges[bm.ends(lid)]
+    history = data["history"]
     first, members = _merged_line(bm, lid, members, *line, evidence)
-    records = history[1:]
     first_mass = MassFunction.from_dict(bm.frame, first["mass"], open_world=True)
     mass = with_running(first_mass, bm.running_mass(lid), config.rule)
-    bm.set_attrs(lid, mass=mass, history=[first, *records], members=members.tolist(), fit=fit.tolist())
+    attrs = {"mass": mass, "history": [first, *history[1:]], "members": members.tolist(), "fit": fit.tolist()}
+    if not _same(data, attrs):
+        bm.set_attrs(lid, **attrs)
+
+
+def _same(data: dict[str, Any], attrs: dict[str, Any]) -> bool:
+    """Whether setting ``attrs`` would leave the object's ``data`` as it is (masses compared by value)."""
+    return all(
+        (data[k] is v or np.array_equal(data[k].dense(), v.dense())) if k == "mass" else data.get(k) == v
+        for k, v in attrs.items()
+    )
 
 
 def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[str]) -> tuple[list[_Line], Removed]:
