@@ -44,16 +44,16 @@ def refits(
 ) -> tuple[dict[int, str], dict[str, NDArray[np.float64]], NearEnds]:
     """The merged lines that only refit a line of the map (merged line -> the line it refits), the new
     fit of each such line (its ends in the order of the line's end points), and the line ends near them
-    (for :func:`_end_moves`).
+    (for :func:`end_moves`).
 
     A merged line refits the map's line L when its members are all of L's
     members and segments of no line, its direction is within ``angle_deg`` of
     L's fit and its ends within ``min(merge distance, corner distance / 2)`` of
     L's, and each end of L can follow without the corners changing
-    (:func:`_end_moves`): a free end point meeting no other line's end, or a
+    (:func:`end_moves`): a free end point meeting no other line's end, or a
     corner of L and one other line whose end it still meets and no other (the
     corner moves to the new midpoint). L then stays in place, moved onto the
-    merged line (:func:`_refit_in_place`), as a whole rebuild would find it.
+    merged line (by the rebuild), as a whole rebuild would find it.
     """
     store = bm.segments
     g = bm.graph
