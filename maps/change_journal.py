@@ -3,8 +3,8 @@
 >>> journal = ChangeJournal()
 >>> start = journal.version
 >>> journal.changed("L1"); journal.changed("C2", "L1")
->>> journal.version - start, sorted(journal.since(start)), journal.since(start + 1)
-(2, ['C2', 'L1'], {'C2', 'L1'})
+>>> journal.version - start, sorted(journal.since(start)), sorted(journal.since(start + 1))
+(2, ['C2', 'L1'], ['C2', 'L1'])
 """
 
 from __future__ import annotations
