@@ -17,7 +17,10 @@ fold observations ``config``, ``poses`` and ``next_id``.
 
 :class:`BeliefMap` is the data: the graph, its mutation and its ids, the open
 space in pieces, the raw segments (:attr:`BeliefMap.segments`) and spatial
-indexes kept up to date one change at a time (:meth:`BeliefMap.near`). Build and
+indexes kept up to date one change at a time (:meth:`BeliefMap.near`), each kept
+by a small object of its own module: the points and lines with their indexes,
+undo log, change journal and running masses (:mod:`~evmap.maps.map_objects`),
+the open space (:mod:`~evmap.maps.open_space_pieces`). Build and
 change the map through its methods; :attr:`BeliefMap.graph` is for reading, by
 algorithms written as plain functions of a graph. Around it, free functions:
 the pipeline (:mod:`evmap.maps.pipeline`, :meth:`~BeliefMap.update`), the
@@ -28,8 +31,6 @@ planner's queries (:mod:`evmap.maps.planner`), the occupancy grid
 
 from __future__ import annotations
 
-import bisect
-import copy
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
@@ -40,14 +41,18 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from evidential import RULES, Frame, MassFunction, combine, conflict
+from evidential import RULES, Frame, MassFunction
 from evmap.maps import map_file, map_json, occupancy, planner
-from evmap.maps.map_file import GRAPH_KEYS, ID_PREFIXES, LINE_KEYS, LINE_KIND, POINT_KEYS, POINT_KINDS, MapParts
+from evmap.maps.all_or_nothing import all_or_nothing
+from evmap.maps.map_checks import check_extras
+from evmap.maps.map_file import GRAPH_KEYS, ID_PREFIXES, MapParts
+from evmap.maps.map_objects import MapObjects
 from evmap.maps.observation import Observation
+from evmap.maps.open_space_pieces import OpenSpacePieces
 from evmap.maps.pipeline import PoseOutcome, fold_observation
 from evmap.maps.planner import Line, Point
 from evmap.maps.segments import SegmentStore
-from evmap.maps.spatial import Bounds, SpatialIndex
+from evmap.maps.spatial import Bounds
 from evmap.sources.config import Config, config_from_data
 
 __all__ = ["BeliefMap", "new_map"]
@@ -96,7 +101,7 @@ class BeliefMap:
             raise ValueError(f"frame must contain the element 'real' (beliefs are Bel({{real}})), got {frame!r}")
         if not isinstance(rule, str) or rule not in RULES:
             raise ValueError(f"rule must be one of {sorted(RULES)}, got {rule!r}")
-        _check_extras(attrs, GRAPH_KEYS, "graph")
+        check_extras(attrs, GRAPH_KEYS, "graph")
         self._frame = frame
         self._graph = nx.Graph(
             schema_version=map_file.SCHEMA_VERSION,
@@ -105,16 +110,10 @@ class BeliefMap:
             open_space=map_json.geojson(shapely.MultiPolygon()),
             **attrs,
         )
-        self._lines: dict[str, tuple[str, str]] = {}
-        self._spaces: list[shapely.Geometry] = []  # pieces whose union is the open space
-        self._space_index: SpatialIndex | None = None  # their boxes; made on first use, then kept
-        self._open_space: shapely.MultiPolygon | None = shapely.MultiPolygon()  # their union; None: not yet made
-        self._indexes: dict[str, SpatialIndex] | None = None  # points, lines, obstacles; made on first use
+        self._objects = MapObjects(self._graph, frame)
+        self._lines = self._objects.lines  # id -> end points
+        self._space = OpenSpacePieces()
         self._config: Config | None = None
-        self._undo: list[tuple[Any, ...]] | None = None  # inside a transaction: how to undo each change
-        self._version = 0
-        self._journal: list[tuple[int, str]] = []  # (version, id) of every object changed, oldest first
-        self._journal_floor = 0  # the journal tells the changes since this version on
         self.segments = SegmentStore.empty(frame)
         """The raw LSL segments behind the lines (:class:`evmap.maps.segments.SegmentStore`)."""
 
@@ -144,7 +143,7 @@ class BeliefMap:
     @property
     def version(self) -> int:
         """A number that changes whenever the map does: what is derived from the map is kept by it."""
-        return self._version
+        return self._objects.journal.version
 
     def changed_since(self, version: int) -> set[str] | None:
         """The ids of the objects added, changed or removed since ``version``; None if the map no longer knows.
@@ -152,10 +151,7 @@ class BeliefMap:
         What is derived from the map (the planner's obstacle trees) catches up
         with these few objects instead of being made anew.
         """
-        if version < self._journal_floor:
-            return None
-        start = bisect.bisect_right(self._journal, (version, "\uffff"))
-        return {id for _, id in self._journal[start:]}
+        return self._objects.journal.since(version)
 
     @property
     def poses(self) -> tuple[int, ...]:
@@ -175,21 +171,15 @@ class BeliefMap:
         return self._config
 
     def __contains__(self, id: object) -> bool:
-        return id in self._lines or id in self._graph
+        return id in self._objects
 
     def __len__(self) -> int:
         """The number of objects: points and lines."""
-        return self._graph.number_of_nodes() + len(self._lines)
+        return len(self._objects)
 
     def __getitem__(self, id: str) -> Line | Point:
         """The line or point ``id`` as the planner sees it (with its belief)."""
-        data = self._data(id)
-        mass = data["mass"]
-        bel, pl = mass.belief("real"), mass.plausibility("real")
-        if id in self._lines:
-            u, v = self._lines[id]
-            return Line(id, u, v, self._graph.nodes[u]["xy"], self._graph.nodes[v]["xy"], mass, bel, pl)
-        return Point(id, data["xy"], data["kind"], mass, bel, pl)
+        return self._objects.view(id)
 
     def is_line(self, id: str) -> bool:
         """True if ``id`` is a line of the map."""
@@ -208,7 +198,7 @@ class BeliefMap:
 
     def mass(self, id: str) -> MassFunction:
         """The mass function of the object ``id``."""
-        return self._data(id)["mass"]
+        return self._objects.data(id)["mass"]
 
     def vacuous(self) -> MassFunction:
         """The vacuous mass function over the map's frame (all mass on the whole frame)."""
@@ -224,38 +214,25 @@ class BeliefMap:
         replaces it), or add to it with :meth:`add_open_space`; the union is
         made when it is read, and :meth:`open_space_near` reads pieces near a box only.
         """
-        if self._open_space is None:
-            union = shapely.union_all(self._spaces)
-            self._open_space = union if isinstance(union, shapely.MultiPolygon) else map_json.as_multipolygon(union)
-            self._graph.graph["open_space"] = map_json.geojson(self._open_space)
-        return self._open_space
+        if not self._space.is_made():
+            self._graph.graph["open_space"] = map_json.geojson(self._space.union())
+        return self._space.union()
 
     @open_space.setter
     def open_space(self, geometry: shapely.Geometry | None) -> None:
         geometry = map_json.as_multipolygon(geometry)
-        self._spaces = list(geometry.geoms)
-        self._space_index = None
+        self._space.replace(geometry)
         self._graph.graph["open_space"] = map_json.geojson(geometry)
-        self._open_space = geometry
         self._changed()
 
     def add_open_space(self, geometry: shapely.Geometry) -> None:
         """Unite a (Multi)Polygon, one observation's open space say, with the map's open space."""
-        geometry = map_json.as_multipolygon(geometry)
-        for piece in geometry.geoms:
-            if self._space_index is not None:
-                self._space_index.insert(str(len(self._spaces)), piece.bounds)
-            self._spaces.append(piece)
-        self._open_space = None
+        self._space.add(geometry)
         self._changed()
 
     def open_space_near(self, bounds: Bounds) -> shapely.Geometry:
         """The open space within the box ``bounds``, and maybe some beyond it; costs what the box holds."""
-        if self._space_index is None:
-            keys = [str(k) for k in range(len(self._spaces))]
-            self._space_index = SpatialIndex.from_boxes(keys, shapely.bounds(self._spaces))
-        pieces = [self._spaces[int(k)] for k in self._space_index.query(bounds)]
-        return shapely.union_all(pieces) if pieces else shapely.MultiPolygon()
+        return self._space.near(bounds)
 
     # ----------------------------------------------------------------- spatial index
 
@@ -271,173 +248,65 @@ class BeliefMap:
         >>> sorted(bm.near((3.5, -0.5, 4.5, 0.5))), sorted(bm.near((3.5, -0.5, 4.5, 0.5), "lines"))
         (['B', 'L1'], ['L1'])
         """
-        ix = self._spatial()
-        if what == "all":
-            return ix["points"].query(bounds) | ix["lines"].query(bounds)
-        if what == "obstacles":
-            return ix["lines"].query(bounds) | ix["targets"].query(bounds)
-        if what in ("points", "lines"):
-            return ix[what].query(bounds)
-        raise ValueError(f"what must be 'points', 'lines', 'obstacles' or 'all', got {what!r}")
+        return self._objects.index.near(bounds, what)
 
     def extent(self) -> Bounds:
         """A box holding every point the map has held (``(inf, inf, -inf, -inf)`` before the first)."""
-        return self._spatial()["points"].extent()
+        return self._objects.index.extent()
 
     # ----------------------------------------------------------------- building
 
     def add_point(
         self, id: str, xy: Iterable[float], kind: str, mass: MassFunction, history: Iterable[Mapping] = (), **attrs: Any
     ) -> None:
-        """Add a point (node) ``id`` at ``xy`` of ``kind`` (corner, endpoint, unidentified).
-
-        ``history`` is the list of evidence records so far (copied); ``attrs`` are
-        extra JSON-able attributes (``shape="concave"``, ``reinforced=True``...).
-        """
-        self._check_new_id(id)
-        _check_extras(attrs, POINT_KEYS, id)
-        self._graph.add_node(
-            id,
-            id=id,
-            xy=planner.point(xy, id),
-            kind=_kind(kind, id),
-            mass=self._check_mass(mass, id),
-            history=_history(history, id),
-            **attrs,
-        )
-        self._index_point(id)
-        self._record("added point", id)
-        self._changed(id)
+        """Add a point ``id`` at ``xy`` of ``kind`` (corner, endpoint, unidentified) (:class:`MapObjects`)."""
+        self._objects.add_point(id, xy, kind, mass, history, **attrs)
 
     def add_line(
         self, id: str, u: str, v: str, mass: MassFunction, history: Iterable[Mapping] = (), **attrs: Any
     ) -> None:
-        """Add a line (edge) ``id`` from point ``u`` to point ``v`` (two existing, different points).
-
-        ``history`` is the list of evidence records so far (copied); ``attrs`` are
-        extra JSON-able attributes (``members=[...]``, ``reinforced=True``...).
-        """
-        self._check_new_id(id)
-        _check_extras(attrs, LINE_KEYS, id)
-        for end in (u, v):
-            if end not in self._graph:
-                raise KeyError(f"line {id!r}: end point {end!r} is not a point of the map")
-        if u == v:
-            raise ValueError(f"line {id!r}: needs two different end points, got {u!r} twice")
-        if self._graph.has_edge(u, v):
-            other = self._graph.edges[u, v]["id"]
-            raise ValueError(f"line {id!r}: points {u!r} and {v!r} are already joined by {other!r}")
-        mass = self._check_mass(mass, id)
-        self._graph.add_edge(u, v, id=id, kind=LINE_KIND, mass=mass, history=_history(history, id), **attrs)
-        self._lines[id] = (u, v)
-        if self._indexes is not None:
-            self._indexes["lines"].insert(id, self._line_bounds(id))
-        self._record("added line", id)
-        self._changed(id)
+        """Add a line ``id`` from point ``u`` to point ``v`` (:class:`MapObjects`)."""
+        self._objects.add_line(id, u, v, mass, history, **attrs)
 
     def remove_line(self, id: str) -> None:
-        """Remove the line ``id`` (its end points stay)."""
-        if id not in self._lines:
-            raise KeyError(f"{id!r} is not a line of the map")
-        u, v = self._lines[id]
-        self._record("removed line", id, u, v, self._graph.adj[u][v])
-        self._graph.remove_edge(*self._lines.pop(id))
-        if self._indexes is not None:
-            self._indexes["lines"].remove(id)
-        self._changed(id)
+        """Remove the line ``id`` (its end points stay) (:class:`MapObjects`)."""
+        self._objects.remove_line(id)
 
     def remove_point(self, id: str) -> None:
-        """Remove the point ``id``; it must end no line (remove those first)."""
-        if id not in self._graph:
-            raise KeyError(f"{id!r} is not a point of the map")
-        ending = sorted(d["id"] for _, _, d in self._graph.edges(id, data=True))
-        if ending:
-            raise ValueError(f"point {id!r} still ends lines {ending}; remove them first")
-        self._record("removed point", id, self._graph.nodes[id])
-        self._graph.remove_node(id)
-        if self._indexes is not None:
-            self._indexes["points"].remove(id)
-            if id in self._indexes["targets"]:
-                self._indexes["targets"].remove(id)
-        self._changed(id)
+        """Remove the point ``id``, which must end no line (:class:`MapObjects`)."""
+        self._objects.remove_point(id)
 
     def set_attrs(self, id: str, /, **attrs: Any) -> None:
-        """Set attributes of the object ``id`` (``mass``, ``xy``, ``kind`` of a point, extras).
-
-        ``id`` cannot change (remove and add instead), nor a line's kind.
-        """
-        data = self._data(id)
-        is_line = id in self._lines
-        if "id" in attrs or (is_line and ({"kind", "xy", "source", "target"} & set(attrs))):
-            raise ValueError(f"{id!r}: cannot set {sorted(attrs)}: id, and a line's kind and ends, are fixed")
-        checked = dict(attrs)
-        map_json.check_json({k: v for k, v in attrs.items() if k not in ("mass", "xy")}, id)
-        if "mass" in attrs:
-            checked["mass"] = self._check_mass(attrs["mass"], id)
-        if "xy" in attrs:
-            checked["xy"] = planner.point(attrs["xy"], id)
-        if "kind" in attrs:
-            checked["kind"] = _kind(attrs["kind"], id)
-        if "history" in attrs:
-            checked["history"] = _history(attrs["history"], id)
-        self._record("set", id, {k: data.get(k, _ABSENT) for k in checked})
-        data.update(checked)
-        if "xy" in checked or "kind" in checked:
-            self._index_point(id)
-        moved = [line["id"] for _, _, line in self._graph.edges(id, data=True)] if "xy" in checked else []
-        if self._indexes is not None:  # the point's lines moved with it
-            for line in moved:
-                self._indexes["lines"].insert(line, self._line_bounds(line))
-        self._changed(id, *moved)
+        """Set attributes of the object ``id`` (``mass``, ``xy``, ``kind`` of a point, extras) (:class:`MapObjects`)."""
+        self._objects.set_attrs(id, **attrs)
 
     def fold(self, id: str, mass: MassFunction, record: Mapping[str, Any]) -> MassFunction:
-        """Combine new evidence into the object's mass by the map's rule; log it in the history.
+        """Combine new evidence into the object's mass by the map's rule and log it (:class:`MapObjects`)."""
+        return self._objects.fold(id, mass, record)
 
-        The record (JSON-able: pose, sensor, source...) is appended to the
-        object's ``history`` with ``rule``, ``conflict`` (K between the stored and
-        the new mass) and ``mass`` (the new evidence as ``{FOCAL: float}``).
+    def running_mass(self, id: str) -> MassFunction | None:
+        """The running mass of the object's evidence records, ``None`` if it has none (:class:`MapObjects`)."""
+        return self._objects.running_mass(id)
 
-        Returns
-        -------
-        The combined mass, now stored. Under Dempster's rule, evidence in total
-        conflict with the stored mass raises :class:`evidential.TotalConflictError`
-        and changes nothing.
-        """
-        data = self._data(id)
-        mass = self._check_mass(mass, id)
-        map_json.check_json(record, f"{id}: record")
-        combined = combine(data["mass"], mass, rule=self.rule)
-        self._record("folded", id, data["mass"], len(data["history"]))
-        data["history"].append(
-            {**record, "rule": self.rule, "conflict": conflict(data["mass"], mass), "mass": mass.to_dict()}
-        )
-        data["mass"] = combined
-        self._changed(id)
-        return combined
+    def keep_running(self, id: str, running: MassFunction | None) -> None:
+        """Give ``id`` the running mass of its evidence records as the caller has it (:class:`MapObjects`)."""
+        self._objects.keep_running(id, running)
 
     def new_id(self, prefix: str) -> str:
         """A fresh id for a new object: ``prefix`` (one of :data:`ID_PREFIXES`) and the next number."""
-        counters = self._graph.graph.setdefault("next_id", dict.fromkeys(ID_PREFIXES, 1))
-        n = counters[prefix]
-        while f"{prefix}{n}" in self:  # ids taken by hand stay taken
-            n += 1
-        counters[prefix] = n + 1
-        return f"{prefix}{n}"
+        return self._objects.new_id(prefix)
 
     def add_pose(self, pose_index: int) -> None:
         """Record that the observation of ``pose_index`` is folded into the map (once per pose)."""
-        poses = self._graph.graph.setdefault("poses", [])
-        if pose_index in poses:
-            raise ValueError(f"pose {pose_index} is already folded into this map")
-        poses.append(int(pose_index))
-        self._changed()
+        self._objects.add_pose(pose_index)
 
     # ----------------------------------------------------------------- all or nothing
 
     @contextmanager
     def transaction(self) -> Iterator[None]:
-        """Changes that happen all or not at all: on any exception inside the block the map is put back as it
-        was (its objects, their attributes and histories, segments, open space, ids and poses), then it is raised.
+        """Changes that happen all or not at all (:func:`evmap.maps.all_or_nothing.all_or_nothing`): on any
+        exception inside the block the map is put back as it was (its objects, their attributes and histories,
+        segments, open space, ids and poses), then it is raised.
 
         :meth:`update` runs in one. Objects put back may come after the others in iteration order.
 
@@ -455,73 +324,8 @@ class BeliefMap:
         >>> sorted(bm.graph.nodes)
         ['A']
         """
-        if self._undo is not None:  # already in one: the outer one decides
+        with all_or_nothing(self._objects, self._space, self.segments, self._graph):
             yield
-            return
-        g = self._graph.graph
-        saved = (
-            self.segments.checkpoint(),
-            len(self._spaces),
-            self._open_space,
-            g.get("open_space"),
-            copy.deepcopy(g.get("next_id")),
-            list(g.get("poses", [])) if "poses" in g else None,
-        )
-        self._undo = []
-        try:
-            yield
-        except BaseException:
-            self._roll_back(saved)
-            raise
-        finally:
-            self._undo = None
-
-    def _roll_back(self, saved: tuple[Any, ...]) -> None:
-        """Undo the changes of the transaction, newest first, and restore what was saved at its start."""
-        undo, self._undo = self._undo or [], None
-        g = self._graph
-        for change, id, *args in reversed(undo):
-            if change == "added line":
-                g.remove_edge(*self._lines.pop(id))
-            elif change == "added point":
-                g.remove_node(id)
-            elif change == "removed line":
-                u, v, data = args
-                g.add_edge(u, v)
-                g.adj[u][v].update(data)
-                self._lines[id] = (u, v)
-            elif change == "removed point":
-                g.add_node(id)
-                g.nodes[id].update(args[0])
-            elif change == "set":
-                data = self._data(id)
-                for key, value in args[0].items():
-                    if value is _ABSENT:
-                        data.pop(key, None)
-                    else:
-                        data[key] = value
-            elif change == "folded":
-                data = self._data(id)
-                data["mass"] = args[0]
-                del data["history"][args[1] :]
-        store, spaces, union, geojson, next_id, poses = saved
-        self.segments.restore(store)
-        del self._spaces[spaces:]
-        self._space_index = None
-        self._open_space = union
-        g.graph["open_space"] = geojson
-        if next_id is not None:
-            g.graph["next_id"] = next_id
-        if poses is not None:
-            g.graph["poses"] = poses
-        self._indexes = None  # made again from the map as it is now
-        self._version += 1
-        self._journal.clear()
-        self._journal_floor = self._version  # what was derived from the map is made anew
-
-    def _record(self, *change: Any) -> None:
-        if self._undo is not None:
-            self._undo.append(change)
 
     # ----------------------------------------------------------------- delegates
 
@@ -606,83 +410,13 @@ class BeliefMap:
                 bm.segments = parts.segments
             if parts.open_space is not None:
                 bm.open_space = parts.open_space
-            g = bm._graph
-            g.add_nodes_from([d["id"] for d in parts.nodes])
-            for (_, attrs), d in zip(g.nodes(data=True), parts.nodes, strict=True):  # in this order
-                attrs.update(d)
-            g.add_edges_from([(u, v, d) for (u, v), d in zip(parts.ends, parts.edges, strict=True)])
-            bm._lines = dict(zip([d["id"] for d in parts.edges], parts.ends, strict=True))
+            bm._objects.fill(parts.nodes, parts.ends, parts.edges)
             return bm
 
     # ----------------------------------------------------------------- internals
 
-    def _check_new_id(self, id: str) -> None:
-        if not isinstance(id, str) or not id:
-            raise ValueError(f"an object id must be a non-empty string, got {id!r}")
-        if id in self:
-            raise ValueError(f"id {id!r} is already used by an object of the map")
-
-    def _check_mass(self, mass: MassFunction, id: str) -> MassFunction:
-        if not isinstance(mass, MassFunction):
-            raise TypeError(f"{id!r}: mass must be a MassFunction, got {type(mass).__name__}")
-        if mass.frame != self._frame:
-            raise ValueError(f"{id!r}: mass is over {mass.frame!r}, the map's frame is {self._frame!r}")
-        return mass
-
-    def _data(self, id: str) -> dict[str, Any]:
-        if id in self._lines:
-            u, v = self._lines[id]
-            return self._graph.adj[u][v]
-        if id in self._graph:
-            return self._graph.nodes[id]
-        raise KeyError(f"{id!r} is neither a point nor a line of the map")
-
-    def _spatial(self) -> dict[str, SpatialIndex]:
-        """The indexes of points, lines and unidentified points: made from the whole map on first use, then kept."""
-        if self._indexes is None:
-            g = self._graph
-            ids = list(g)
-            xy = np.array([xy for _, xy in g.nodes(data="xy")], dtype=np.float64).reshape(-1, 2)
-            target = np.array([kind == "unidentified" for _, kind in g.nodes(data="kind")], dtype=bool)
-            row = dict(zip(ids, range(len(ids)), strict=True))
-            ends = np.array([(row[u], row[v]) for u, v in self._lines.values()], dtype=np.intp).reshape(-1, 2)
-            p, q = xy[ends[:, 0]], xy[ends[:, 1]]
-            points = np.hstack([xy, xy])
-            self._indexes = {
-                "points": SpatialIndex.from_boxes(ids, points),
-                "lines": SpatialIndex.from_boxes(list(self._lines), np.hstack([np.minimum(p, q), np.maximum(p, q)])),
-                "targets": SpatialIndex.from_boxes([n for n, t in zip(ids, target.tolist()) if t], points[target]),
-            }
-        return self._indexes
-
-    def _index_point(self, id: str) -> None:
-        """Put the point ``id`` in the indexes (if made) at its place (new, moved or of a new kind)."""
-        if self._indexes is not None:
-            data = self._graph.nodes[id]
-            x, y = data["xy"]
-            self._indexes["points"].insert(id, (x, y, x, y))
-            targets = self._indexes["targets"]
-            if data["kind"] == "unidentified":
-                targets.insert(id, (x, y, x, y))
-            elif id in targets:
-                targets.remove(id)
-
-    def _line_bounds(self, id: str) -> Bounds:
-        u, v = self._lines[id]
-        (x0, y0), (x1, y1) = self._graph.nodes[u]["xy"], self._graph.nodes[v]["xy"]
-        return min(x0, x1), min(y0, y1), max(x0, x1), max(y0, y1)
-
     def _changed(self, *ids: str) -> None:
-        self._version += 1
-        self._journal.extend((self._version, id) for id in ids)
-        if len(self._journal) > 2 * len(self) + 4096:  # forget the older half
-            half = len(self._journal) // 2
-            self._journal_floor = self._journal[half - 1][0]
-            del self._journal[:half]
-
-
-_ABSENT = object()
-"""What an attribute that a transaction set had been: absent (undo deletes it)."""
+        self._objects.changed(*ids)
 
 
 def new_map(config: Config) -> BeliefMap:
@@ -695,22 +429,3 @@ def new_map(config: Config) -> BeliefMap:
     return BeliefMap(
         config.frame, config.rule, config=config.to_data(), next_id=dict.fromkeys(ID_PREFIXES, 1), poses=[]
     )
-
-
-def _kind(kind: str, id: str) -> str:
-    if kind not in POINT_KINDS:
-        raise ValueError(f"{id!r}: kind must be one of {list(POINT_KINDS)}, got {kind!r}")
-    return kind
-
-
-def _check_extras(attrs: Mapping[str, Any], reserved: tuple[str, ...], id: str) -> None:
-    clash = sorted(set(attrs) & set(reserved))
-    if clash:
-        raise ValueError(f"{id!r}: attributes {clash} are reserved")
-    map_json.check_json(attrs, id)
-
-
-def _history(history: Iterable[Mapping[str, Any]], id: str) -> list[dict[str, Any]]:
-    records = [dict(record) for record in history]
-    map_json.check_json(records, f"{id}: history")
-    return records

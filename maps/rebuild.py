@@ -10,7 +10,10 @@ lines it replaces carries over, at most one record per pose and source. A line
 seen from more than :data:`~evmap.maps.segments.CONSOLIDATE_POSES` poses is
 consolidated into its merged support (:meth:`~evmap.maps.segments.SegmentStore.consolidate`),
 which stands for them in later rebuilds: a rebuild merges what is near the
-change, a few rows per line, however long the line has been seen.
+change, a few rows per line, however long the line has been seen. A merged
+line that only moves a map line refits it in place (:mod:`evmap.maps.refit`);
+masses carry the running masses of their sonar records
+(:mod:`evmap.maps.running_mass`), so nothing is folded again.
 """
 
 from __future__ import annotations
@@ -23,10 +26,12 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from evidential import MassFunction, combine
+from evidential import MassFunction
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import Merged, merge_segments
 from evmap.maps.noise import NoiseEvidence, noise_evidence
+from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, surface_points_near
+from evmap.maps.running_mass import NOISE_STAGE, evidence_records, running_of, with_running
 from evmap.maps.segments import CONSOLIDATE_POSES, SegmentStore
 from evmap.maps.sensed import kept_features
 from evmap.sources.config import Config
@@ -34,13 +39,10 @@ from evmap.sources.config import Config
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["fold_records", "rebuild", "refresh_points"]
+__all__ = ["rebuild", "refresh_points"]
 
-SURFACE_KINDS = ("corner", "endpoint")
-"""The kinds of points that end lines (an unidentified object ends none)."""
-
-Removed = list[tuple[tuple[float, float], list[dict[str, Any]]]]
-"""Removed corners: position and history of each."""
+Removed = list[tuple[tuple[float, float], list[dict[str, Any]], MassFunction | None]]
+"""Removed corners: position, history and running mass of each."""
 
 
 @dataclass
@@ -50,6 +52,7 @@ class _Line:
     fit: NDArray[np.float64]  # (2, 2): the ends as merged, before corners move them
     fixed: tuple[str | None, str | None]  # the point each end stays on, None: found anew
     data: dict[str, Any]  # id, mass, history, extras
+    running: MassFunction | None  # the running mass of its evidence records
 
 
 def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint: NDArray[np.float64]) -> set[str]:
@@ -67,21 +70,21 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     merged = merge_segments(store.p[pool], store.q[pool], config.merge, store.seen[pool])
     evidence = _merged_evidence(bm, pool, merged, config)
 
-    refits, fits, neighbours = _refits(bm, pool, merged, dissolved, config)
-    near = _line_ends(bm, neighbours, fits)
-    moves = [move for lid in fits for move in _end_moves(bm, lid, fits, near, config) or ()]
-    for k, lid in refits.items():
+    refitted, fits, near = refits(bm, pool, merged, dissolved, config)
+    moves = [move for found in end_moves(bm, fits, near, config).values() for move in found or ()]
+    for k, lid in refitted.items():
         _refit_in_place(bm, lid, pool[merged.groups[k]], fits[lid], (merged, k), evidence, config)
         del dissolved[lid]
     for node, xy in moves:
-        bm.set_attrs(node, xy=xy)
-    fresh = [k for k in range(len(merged.groups)) if k not in refits]
+        if bm.graph.nodes[node]["xy"] != xy:
+            bm.set_attrs(node, xy=xy)
+    fresh = [k for k in range(len(merged.groups)) if k not in refitted]
     affected = _affected_points(bm, dissolved, merged, fresh, config)
-    histories = {lid: g.edges[ends]["history"] for lid, ends in dissolved.items()}
+    histories = {lid: (g.edges[ends]["history"], bm.running_mass(lid)) for lid, ends in dissolved.items()}
     kept, removed = _detach(bm, dissolved, affected)
     lines = kept + _new_lines(bm, pool, merged, fresh, evidence, histories, config)
     store.line[touched[store.eliminated[touched]]] = ""
-    return _attach(bm, lines, removed, viewpoint, config) | set(refits.values())
+    return _attach(bm, lines, removed, viewpoint, config) | set(refitted.values())
 
 
 def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> None:
@@ -97,17 +100,10 @@ def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> No
         d = g.nodes[n]
         masses = [e["mass"] for _, _, e in g.edges(n, data=True)]
         weakest = min(masses, key=lambda m: m.belief(real)) if masses else bm.vacuous()
-        if d["kind"] == "endpoint":
-            bm.set_attrs(n, mass=weakest)
-        elif d["kind"] == "corner":
-            bm.set_attrs(n, mass=fold_records(weakest, d["history"], config.rule))
-
-
-def fold_records(mass: MassFunction, records: list[dict[str, Any]], rule: str) -> MassFunction:
-    """``mass`` with the records' masses (``{FOCAL: float}``) folded in one by one by ``rule``."""
-    for record in records:
-        mass = combine(mass, MassFunction.from_dict(mass.frame, record["mass"], open_world=True), rule=rule)
-    return mass
+        if d["kind"] in SURFACE_KINDS:
+            mass = weakest if d["kind"] == "endpoint" else with_running(weakest, bm.running_mass(n), config.rule)
+            if not _same(d, {"mass": mass}):
+                bm.set_attrs(n, mass=mass)
 
 
 def _affected_points(
@@ -120,116 +116,12 @@ def _affected_points(
     if fresh:
         ends = np.concatenate([merged.p[fresh], merged.q[fresh]])
         reach = 2 * config.corners.distance + 1e-9
-        lo, hi = ends.min(axis=0) - reach, ends.max(axis=0) + reach
-        points = [n for n in bm.near((*lo, *hi), "points") if g.nodes[n]["kind"] in SURFACE_KINDS]
+        points = surface_points_near(bm, ends, reach)
         if points:
             xy = np.array([g.nodes[n]["xy"] for n in points])
             d = np.hypot(*(xy[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)).min(axis=1)
             affected |= {points[i] for i in np.flatnonzero(d <= reach)}
     return affected
-
-
-def _refits(
-    bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, dissolved: dict[str, tuple[str, str]], config: Config
-) -> tuple[dict[int, str], dict[str, NDArray[np.float64]], list[tuple[str, str]]]:
-    """The merged lines that only refit a line of the map (merged line -> the line it refits), the new
-    fit of each such line (its ends in the order of the line's end points), and the (line, point) pairs
-    near them (for :func:`_end_moves`).
-
-    A merged line refits the map's line L when its members are all of L's
-    members and segments of no line, its direction is within ``angle_deg`` of
-    L's fit and its ends within ``min(merge distance, corner distance / 2)`` of
-    L's, and each end of L can follow without the corners changing
-    (:func:`_end_moves`): a free end point meeting no other line's end, or a
-    corner of L and one other line whose end it still meets and no other (the
-    corner moves to the new midpoint). L then stays in place, moved onto the
-    merged line (:func:`_refit_in_place`), as a whole rebuild would find it.
-    """
-    store = bm.segments
-    g = bm.graph
-    cos_tol = np.cos(np.radians(config.merge.angle_deg))
-    move = min(config.merge.distance, config.corners.distance / 2)
-    fits: dict[str, NDArray[np.float64]] = {}
-    lines: dict[str, int] = {}
-    for k, group in enumerate(merged.groups):
-        rows = pool[group]
-        owners = set(store.line[rows].tolist()) - {""}
-        if len(owners) != 1:
-            continue
-        (lid,) = owners
-        data = g.edges[dissolved[lid]]
-        if not set(data["members"]) <= set(rows.tolist()):
-            continue
-        old = np.asarray(data["fit"], dtype=float)
-        new = np.stack([merged.p[k], merged.q[k]])
-        if np.hypot(*(new - old[::-1]).T).max() < np.hypot(*(new - old).T).max():
-            new = new[::-1]
-        u, v = old[1] - old[0], new[1] - new[0]
-        cos = abs(float(u @ v)) / (np.hypot(*u) * np.hypot(*v))
-        if np.hypot(*(new - old).T).max() <= move and cos >= cos_tol:
-            fits[lid], lines[lid] = new, k
-    if not fits:
-        return {}, fits, []
-    ends = np.concatenate(list(fits.values()))
-    reach = 3 * config.corners.distance + move
-    lo, hi = ends.min(axis=0) - reach, ends.max(axis=0) + reach
-    points = [n for n in bm.near((*lo, *hi), "points") if g.nodes[n]["kind"] in SURFACE_KINDS]
-    neighbours = [(d["id"], n) for n in points for _, _, d in g.edges(n, data=True)]
-    while True:  # a line follows its new fit only if the lines its ends meet can follow theirs
-        near = _line_ends(bm, neighbours, fits)
-        failed = {lid for lid in fits if _end_moves(bm, lid, fits, near, config) is None}
-        if not failed:
-            return {lines[lid]: lid for lid in fits}, fits, neighbours
-        for lid in failed:
-            del fits[lid]
-
-
-def _line_ends(
-    bm: BeliefMap, neighbours: list[tuple[str, str]], fits: dict[str, NDArray[np.float64]]
-) -> tuple[list[tuple[str, str]], NDArray[np.float64], NDArray[np.float64]]:
-    """The (line, point) pairs, the fit end of each line at its point and each line's unit direction (the
-    lines of ``fits`` with their new fits)."""
-    g = bm.graph
-    stored = [fits.get(m) for m, _ in neighbours]
-    lines = [
-        f if f is not None else np.asarray(g.edges[bm.ends(m)]["fit"], dtype=float)
-        for f, (m, _) in zip(stored, neighbours, strict=True)
-    ]
-    ends = np.array([f[bm.ends(m).index(n)] for f, (m, n) in zip(lines, neighbours, strict=True)]).reshape(-1, 2)
-    d = np.array([f[1] - f[0] for f in lines]).reshape(-1, 2)
-    return neighbours, ends, d / np.hypot(*d.T)[:, None]
-
-
-def _end_moves(
-    bm: BeliefMap,
-    lid: str,
-    fits: dict[str, NDArray[np.float64]],
-    near: tuple[list[tuple[str, str]], NDArray[np.float64], NDArray[np.float64]],
-    config: Config,
-) -> list[tuple[str, tuple[float, float]]] | None:
-    """Where the end points of the line ``lid`` go when it takes its new fit (the lines of ``fits`` take
-    theirs): a free end onto its fit end, a corner of two lines to the midpoint of their fit ends; None if
-    the corners would change (an end meeting an end of ``near`` (:func:`_line_ends`) that it did not meet,
-    or leaving its corner's other line).
-    """
-    g = bm.graph
-    cos_max = np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
-    pairs, their_end, their_u = near
-    own = fits[lid]
-    u = (own[1] - own[0]) / np.hypot(*(own[1] - own[0]))
-    moves = []
-    for e, node in enumerate(bm.ends(lid)):
-        end = own[e]
-        close = (np.hypot(*(their_end - end).T) <= config.corners.distance + 1e-9) & (np.abs(their_u @ u) <= cos_max)
-        meets = [pairs[i] for i in np.flatnonzero(close).tolist() if pairs[i][0] != lid]
-        if g.nodes[node]["kind"] == "endpoint" and not meets:
-            moves.append((node, (float(end[0]), float(end[1]))))
-        elif g.nodes[node]["kind"] == "corner" and g.degree(node) == 2 and len(meets) == 1 and meets[0][1] == node:
-            mid = (end + their_end[pairs.index(meets[0])]) / 2
-            moves.append((node, (float(mid[0]), float(mid[1]))))
-        else:
-            return None
-    return moves
 
 
 def _refit_in_place(
@@ -243,11 +135,22 @@ def _refit_in_place(
 ) -> None:
     """The line ``lid`` takes the merged line's members, support, noise-elimination evidence and ``fit``
     (its end points are moved by the caller); its sonar records stay."""
-    history = bm.graph.edges[bm.ends(lid)]["history"]
+    data = bm.graph.edges[bm.ends(lid)]
+    history = data["history"]
     first, members = _merged_line(bm, lid, members, *line, evidence)
-    records = history[1:]
-    mass = fold_records(MassFunction.from_dict(bm.frame, first["mass"], open_world=True), records, config.rule)
-    bm.set_attrs(lid, mass=mass, history=[first, *records], members=members.tolist(), fit=fit.tolist())
+    first_mass = MassFunction.from_dict(bm.frame, first["mass"], open_world=True)
+    mass = with_running(first_mass, bm.running_mass(lid), config.rule)
+    attrs = {"mass": mass, "history": [first, *history[1:]], "members": members.tolist(), "fit": fit.tolist()}
+    if not _same(data, attrs):
+        bm.set_attrs(lid, **attrs)
+
+
+def _same(data: dict[str, Any], attrs: dict[str, Any]) -> bool:
+    """Whether setting ``attrs`` would leave the object's ``data`` as it is (masses compared by value)."""
+    return all(
+        (data[k] is v or np.array_equal(data[k].dense(), v.dense())) if k == "mass" else data.get(k) == v
+        for k, v in attrs.items()
+    )
 
 
 def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[str]) -> tuple[list[_Line], Removed]:
@@ -262,10 +165,14 @@ def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[
         u, v = bm.ends(lid)
         d = g.edges[u, v]
         fixed = (None if u in affected else u, None if v in affected else v)
-        kept.append(_Line(np.array(d["fit"], dtype=float), fixed, dict(d)))
+        kept.append(_Line(np.array(d["fit"], dtype=float), fixed, dict(d), bm.running_mass(lid)))
     for lid in [line.data["id"] for line in kept] + list(dissolved):
         bm.remove_line(lid)
-    removed = [(g.nodes[n]["xy"], g.nodes[n]["history"]) for n in affected if g.nodes[n]["kind"] == "corner"]
+    removed = [
+        (g.nodes[n]["xy"], g.nodes[n]["history"], bm.running_mass(n))
+        for n in affected
+        if g.nodes[n]["kind"] == "corner"
+    ]
     for n in affected:
         bm.remove_point(n)
     return kept, removed
@@ -301,7 +208,7 @@ def _merged_line(
     store = bm.segments
     base, seen = evidence
     first = {
-        "stage": "noise_elimination",
+        "stage": NOISE_STAGE,
         "poses": sorted(set(store.pose[members].tolist())),
         "relation": str(base.relation[k]),
         "length": float(base.length[k]),
@@ -322,28 +229,28 @@ def _new_lines(
     merged: Merged,
     fresh: list[int],
     evidence: tuple[NoiseEvidence, NDArray[np.intp]],
-    histories: dict[str, list[dict[str, Any]]],
+    histories: dict[str, tuple[list[dict[str, Any]], MassFunction | None]],
     config: Config,
 ) -> list[_Line]:
     """The ``fresh`` merged lines: their noise-elimination evidence, and the sonar records of the lines they
-    replace."""
+    replace (history and running mass of each)."""
     store = bm.segments
     lines = []
     for k in fresh:
         members = pool[merged.groups[k]]
         replaced = set(store.line[members].tolist()) & set(histories)
-        records = _carried_records([histories[lid] for lid in sorted(replaced)])
+        records, running = _carried(bm, [histories[lid] for lid in sorted(replaced)], config)
         lid = bm.new_id("L")
         first, members = _merged_line(bm, lid, members, merged, k, evidence)
         first_mass = MassFunction.from_dict(bm.frame, first["mass"], open_world=True)
         data = {
             "id": lid,
-            "mass": fold_records(first_mass, records, config.rule),
+            "mass": with_running(first_mass, running, config.rule),
             "history": [first, *records],
             "members": members.tolist(),
             "reinforced": any(r["category"] == "matched" for r in records),
         }
-        lines.append(_Line(np.stack([merged.p[k], merged.q[k]]), (None, None), data))
+        lines.append(_Line(np.stack([merged.p[k], merged.q[k]]), (None, None), data, running))
     return lines
 
 
@@ -356,7 +263,7 @@ def _attach(
     fits = np.array([line.fit for line in lines]).reshape(-1, 2, 2)
     corners = find_corners(fits[:, 0], fits[:, 1], config.corners, viewpoint)
     end_point = {(i, e): line.fixed[e] for i, line in enumerate(lines) for e in (0, 1) if line.fixed[e] is not None}
-    removed_xy = np.array([pxy for pxy, _ in removed], dtype=float).reshape(-1, 2)
+    removed_xy = np.array([pxy for pxy, _, _ in removed], dtype=float).reshape(-1, 2)
     for k, ends in enumerate(corners.ends):
         pairs = [tuple(pair) for pair in ends.tolist()]
         if any(pair in end_point for pair in pairs):
@@ -364,12 +271,13 @@ def _attach(
         cid = bm.new_id("C")
         xy = corners.xy[k]
         close = np.hypot(*(removed_xy - xy).T) <= config.corners.distance
-        near = [removed[j][1] for j in np.flatnonzero(close).tolist()]
-        history = _carried_records(near)
+        near = [removed[j][1:] for j in np.flatnonzero(close).tolist()]
+        history, running = _carried(bm, near, config)
         reinforced = any(r["category"] == "matched" for r in history)
         bm.add_point(
             cid, xy, "corner", bm.vacuous(), history=history, shape=str(corners.shape[k]), reinforced=reinforced
         )
+        bm.keep_running(cid, running)
         for pair in pairs:
             end_point[pair] = cid
     added: set[str] = set()
@@ -384,6 +292,7 @@ def _attach(
         data = line.data
         extras = {k: v for k, v in data.items() if k not in ("id", "kind", "mass", "history", "fit")}
         bm.add_line(data["id"], *nodes, data["mass"], history=data["history"], fit=line.fit.tolist(), **extras)
+        bm.keep_running(data["id"], line.running)
         added.add(data["id"])
     return added
 
@@ -396,6 +305,17 @@ def _poses_seen(store: SegmentStore, rows: NDArray[np.intp]) -> int:
     """
     support = store.role[rows] == "support"
     return len(np.unique(store.pose[rows[~support]])) + int(store.seen[rows[support]].sum())
+
+
+def _carried(
+    bm: BeliefMap, replaced: list[tuple[list[dict[str, Any]], MassFunction | None]], config: Config
+) -> tuple[list[dict[str, Any]], MassFunction | None]:
+    """The sonar records carried over from replaced objects (history and running mass of each), and their
+    running mass: that of the one replaced object whose evidence records they are, else made from them."""
+    records = _carried_records([history for history, _ in replaced])
+    if len(replaced) == 1 and records == evidence_records(replaced[0][0]):
+        return records, replaced[0][1]
+    return records, running_of(bm.frame, records, config.rule)
 
 
 def _carried_records(histories: Iterable[list[dict[str, Any]]]) -> list[dict[str, Any]]:

@@ -41,6 +41,9 @@ OPTIONAL_COLUMNS: tuple[str, ...] = ("role", "seen")
 CONSOLIDATE_POSES = 3
 """A line seen from more poses than this is consolidated into its merged support."""
 
+WRITTEN: tuple[str, ...] = ("relation", "mass", "conflict", "eliminated", "line", "role")
+"""The columns written in place after a row is appended (by noise elimination, rebuilds, consolidation)."""
+
 ROLES = ("", "absorbed", "support")
 """A raw segment, a raw segment absorbed into its line's support, a line's merged support."""
 
@@ -170,7 +173,7 @@ class SegmentStore:
         (['absorbed', 'absorbed', 'support'], [1, 1, 2], [3, 5, 5], [2])
         """
         members = np.asarray(members, dtype=np.intp)
-        longest = members[np.argmax(self.length[members])]
+        longest = members[np.argmax(np.hypot(*(self.q[members] - self.p[members]).T))]
         features = {name: column[[longest]] for name, column in self.features.items()}
         pose = [int(self.pose[members].max())]
         (row,) = self.append([p], [q], pose, [""], features).tolist()
@@ -183,16 +186,18 @@ class SegmentStore:
                 self._index.remove(str(i))
         return row
 
-    def checkpoint(self) -> tuple[int, dict[str, NDArray[Any]], dict[str, NDArray[Any]]]:
-        """A copy of the store's rows, for :meth:`restore` (the map's all-or-nothing updates)."""
+    def checkpoint(self) -> tuple[int, dict[str, NDArray[Any]]]:
+        """What :meth:`restore` needs to put the rows back as they are (the map's all-or-nothing updates):
+        their number and a copy of the columns :data:`WRITTEN` in place; the other columns of a row never
+        change once it is appended."""
         n = self._n
-        return n, {k: v[:n].copy() for k, v in self._data.items()}, {k: v[:n].copy() for k, v in self._features.items()}
+        return n, {k: self._data[k][:n].copy() for k in WRITTEN}
 
-    def restore(self, checkpoint: tuple[int, dict[str, NDArray[Any]], dict[str, NDArray[Any]]]) -> None:
-        """Put the rows of a :meth:`checkpoint` back, as they were then."""
-        self._n, data, features = checkpoint
-        self._data = {k: v.copy() for k, v in data.items()}
-        self._features = {k: v.copy() for k, v in features.items()}
+    def restore(self, checkpoint: tuple[int, dict[str, NDArray[Any]]]) -> None:
+        """Put the rows of a :meth:`checkpoint` back, as they were then (rows appended since are dropped)."""
+        self._n, written = checkpoint
+        for k, column in written.items():
+            self._data[k][: self._n] = column
         self._index = None
 
     def near(self, bounds: tuple[float, float, float, float]) -> NDArray[np.intp]:

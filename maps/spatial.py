@@ -1,10 +1,12 @@
-"""A spatial index of keyed bounding boxes that changes one object at a time: shapely's STRtree plus the changes.
+"""A spatial index of keyed bounding boxes that changes one object at a time: a uniform grid of cells.
 
-A :class:`SpatialIndex` holds a static :class:`shapely.STRtree` over the boxes
-it had when the tree was built, and beside it the few boxes added or moved
-since (searched by numpy) and the keys removed since (filtered out). When the
-changes outgrow a small share of the tree it is built anew, so a query costs
-``O(log n + k)`` and a change costs ``O(1)`` amortised, at any size.
+A :class:`SpatialIndex` files each key under the square cells (``cell`` metres
+a side) that its box meets; a query gathers the keys of the cells its box meets
+and keeps those whose boxes meet it. An insert, move or removal costs the cells
+of one box and a query the cells of its box and the keys there: what they
+touch, at any size of the index, with nothing ever built anew. A box meeting
+more than :data:`WIDE_CELLS` cells is kept apart, in a short list every query
+looks through (few objects are that wide), so that no box files too many cells.
 """
 
 from __future__ import annotations
@@ -13,16 +15,18 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-import shapely
 from numpy.typing import NDArray
 
-__all__ = ["Bounds", "SpatialIndex"]
+__all__ = ["CELL", "WIDE_CELLS", "Bounds", "SpatialIndex"]
 
 Bounds = tuple[float, float, float, float]
 """A box ``(xmin, ymin, xmax, ymax)``."""
 
-REBUILD_SHARE = 0.05
-"""The tree is built anew once the changes since it was built outnumber this share of its boxes (and 64)."""
+CELL = 2.0
+"""The side of a grid cell (metres)."""
+
+WIDE_CELLS = 64
+"""A box meeting more cells than this is kept in the wide list instead of the grid."""
 
 
 class SpatialIndex:
@@ -36,23 +40,21 @@ class SpatialIndex:
     (['c'], 2, (0.0, 0.0, 6.0, 6.0))
     """
 
-    def __init__(self) -> None:
-        self._keys: list[str] = []  # of the tree's boxes
-        self._tree = shapely.STRtree([])
+    def __init__(self, cell: float = CELL) -> None:
+        if not cell > 0:
+            raise ValueError(f"cell must be a positive size, got {cell!r}")
+        self._cell = float(cell)
         self._boxes: dict[str, Bounds] = {}  # every key's current box
-        self._fresh: dict[str, Bounds] = {}  # added or moved since the tree was built
-        self._stale: set[str] = set()  # in the tree with an old box, or removed
+        self._cells: dict[tuple[int, int], set[str]] = {}  # the keys filed under each cell
+        self._wide: set[str] = set()  # the keys whose boxes meet too many cells
         self._extent = [math.inf, math.inf, -math.inf, -math.inf]  # grows with the boxes, never shrinks
 
     @classmethod
-    def from_boxes(cls, keys: Sequence[str], boxes: NDArray[np.float64]) -> SpatialIndex:
+    def from_boxes(cls, keys: Sequence[str], boxes: NDArray[np.float64], cell: float = CELL) -> SpatialIndex:
         """The index of many objects at once (``boxes`` (n, 4), one row per key)."""
-        index = cls()
-        boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
-        index._boxes = dict(zip(keys, map(tuple, boxes.tolist()), strict=True))
-        if len(boxes):
-            index._extent = [*boxes[:, :2].min(axis=0).tolist(), *boxes[:, 2:].max(axis=0).tolist()]
-        index._build()
+        index = cls(cell)
+        for key, box in zip(keys, np.asarray(boxes, dtype=float).reshape(-1, 4).tolist(), strict=True):
+            index.insert(key, box)
         return index
 
     def __len__(self) -> int:
@@ -63,43 +65,52 @@ class SpatialIndex:
 
     def insert(self, key: str, bounds: Bounds) -> None:
         """Add ``key`` with its bounding box (a key already present is moved)."""
-        if key in self._boxes and key not in self._fresh:
-            self._stale.add(key)
-        box = self._boxes[key] = self._fresh[key] = tuple(map(float, bounds))
+        if key in self._boxes:
+            self.remove(key)
+        box = self._boxes[key] = (float(bounds[0]), float(bounds[1]), float(bounds[2]), float(bounds[3]))
         e = self._extent
         self._extent = [min(e[0], box[0]), min(e[1], box[1]), max(e[2], box[2]), max(e[3], box[3])]
-        self._maybe_build()
+        cells = self._span(box)
+        if cells is None:
+            self._wide.add(key)
+            return
+        for cell in cells:
+            self._cells.setdefault(cell, set()).add(key)
 
     def remove(self, key: str) -> None:
         """Forget ``key`` (a KeyError if it is not there)."""
-        del self._boxes[key]
-        if self._fresh.pop(key, None) is None or key in self._stale:
-            self._stale.add(key)
-        self._maybe_build()
+        box = self._boxes.pop(key)
+        cells = self._span(box)
+        if cells is None:
+            self._wide.discard(key)
+            return
+        for cell in cells:
+            keys = self._cells[cell]
+            keys.discard(key)
+            if not keys:
+                del self._cells[cell]
 
     def query(self, bounds: Bounds) -> set[str]:
         """The keys whose boxes meet the box ``bounds`` (edges touching count)."""
         xmin, ymin, xmax, ymax = bounds
-        found = {self._keys[i] for i in self._tree.query(shapely.box(xmin, ymin, xmax, ymax)).tolist()}
-        found -= self._stale
-        if self._fresh:
-            fresh = list(self._fresh)
-            b = np.array(list(self._fresh.values()))
-            hit = (b[:, 0] <= xmax) & (b[:, 2] >= xmin) & (b[:, 1] <= ymax) & (b[:, 3] >= ymin)
-            found.update(fresh[i] for i in np.flatnonzero(hit).tolist())
-        return found
+        cells = self._span(bounds, len(self._cells))
+        candidates = set(self._wide)
+        for keys in self._cells.values() if cells is None else (self._cells.get(c) for c in cells):
+            if keys:
+                candidates |= keys
+        boxes = self._boxes
+        return {k for k in candidates if (b := boxes[k])[0] <= xmax and b[2] >= xmin and b[1] <= ymax and b[3] >= ymin}
 
     def extent(self) -> Bounds:
         """A box holding every box the index has held (``(inf, inf, -inf, -inf)`` before the first)."""
         return tuple(self._extent)
 
-    def _maybe_build(self) -> None:
-        if len(self._fresh) + len(self._stale) > max(64, REBUILD_SHARE * len(self._keys)):
-            self._build()
-
-    def _build(self) -> None:
-        self._keys = list(self._boxes)
-        b = np.array(list(self._boxes.values()), dtype=float).reshape(-1, 4)
-        self._tree = shapely.STRtree(shapely.box(b[:, 0], b[:, 1], b[:, 2], b[:, 3]))
-        self._fresh.clear()
-        self._stale.clear()
+    def _span(self, box: Bounds, limit: int = WIDE_CELLS) -> list[tuple[int, int]] | None:
+        """The cells the box meets, or None if they are more than ``limit`` (or the box is not finite)."""
+        if not all(map(math.isfinite, box)):
+            return None
+        c = self._cell
+        i0, j0, i1, j1 = math.floor(box[0] / c), math.floor(box[1] / c), math.floor(box[2] / c), math.floor(box[3] / c)
+        if (i1 - i0 + 1) * (j1 - j0 + 1) > limit:
+            return None
+        return [(i, j) for i in range(i0, i1 + 1) for j in range(j0, j1 + 1)]

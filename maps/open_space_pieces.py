@@ -1,0 +1,77 @@
+"""The sonar open space of a map kept in pieces: added to one observation at a time, read near a box.
+
+Every observation's open space is a piece; the union of all of them is made
+only when it is read whole (:meth:`OpenSpacePieces.union`), and a spatial index
+of the pieces' boxes answers what is near a box at the cost of what is there
+(:meth:`OpenSpacePieces.near`).
+
+>>> import shapely
+>>> space = OpenSpacePieces()
+>>> space.add(shapely.box(0, 0, 2, 1)); space.add(shapely.box(1, 0, 3, 1))
+>>> round(space.union().area, 6), len(space), space.near((5, 5, 6, 6)).is_empty
+(3.0, 2, True)
+"""
+
+from __future__ import annotations
+
+import shapely
+
+from evmap.maps import map_json
+from evmap.maps.spatial import Bounds, SpatialIndex
+
+__all__ = ["OpenSpacePieces"]
+
+
+class OpenSpacePieces:
+    """Pieces whose union is the open space, their boxes' index (made on first use) and their union (when read)."""
+
+    def __init__(self) -> None:
+        self._pieces: list[shapely.Geometry] = []
+        self._index: SpatialIndex | None = None
+        self._union: shapely.MultiPolygon | None = shapely.MultiPolygon()  # None: not made since the last change
+
+    def __len__(self) -> int:
+        return len(self._pieces)
+
+    def union(self) -> shapely.MultiPolygon:
+        """The union of the pieces, a (possibly empty) MultiPolygon; made once after each change."""
+        if self._union is None:
+            union = shapely.union_all(self._pieces)
+            self._union = union if isinstance(union, shapely.MultiPolygon) else map_json.as_multipolygon(union)
+        return self._union
+
+    def is_made(self) -> bool:
+        """Whether the union is made (reading it costs nothing)."""
+        return self._union is not None
+
+    def replace(self, geometry: shapely.MultiPolygon) -> None:
+        """The open space is ``geometry`` (a MultiPolygon) and nothing else."""
+        self._pieces = list(geometry.geoms)
+        self._index = None
+        self._union = geometry
+
+    def add(self, geometry: shapely.Geometry) -> None:
+        """Unite a (Multi)Polygon with the open space."""
+        for piece in map_json.as_multipolygon(geometry).geoms:
+            if self._index is not None:
+                self._index.insert(str(len(self._pieces)), piece.bounds)
+            self._pieces.append(piece)
+        self._union = None
+
+    def near(self, bounds: Bounds) -> shapely.Geometry:
+        """The open space within the box ``bounds``, and maybe some beyond it; costs what the box holds."""
+        if self._index is None:
+            keys = [str(k) for k in range(len(self._pieces))]
+            self._index = SpatialIndex.from_boxes(keys, shapely.bounds(self._pieces))
+        pieces = [self._pieces[int(k)] for k in self._index.query(bounds)]
+        return shapely.union_all(pieces) if pieces else shapely.MultiPolygon()
+
+    def truncate(self, count: int, union: shapely.MultiPolygon | None) -> None:
+        """Back to the first ``count`` pieces, whose union is ``union`` (None: not made)."""
+        del self._pieces[count:]
+        self._index = None
+        self._union = union
+
+    def made_union(self) -> shapely.MultiPolygon | None:
+        """The union if it is made, else None (what :meth:`truncate` takes back)."""
+        return self._union

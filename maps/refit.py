@@ -1,0 +1,148 @@
+"""Refits in place: merged lines that only move a line of the map, found before the rebuild dissolves it.
+
+A rebuild (:mod:`evmap.maps.rebuild`) dissolves the lines near a change and
+merges their segments again; a merged line made of one map line's members (and
+new segments of no line), close to it in direction and ends, whose ends can
+follow without any corner changing, refits that line in place instead
+(:func:`refits`): the line keeps its id and points, which move onto the new fit
+(:func:`end_moves`). The ends near the refitted lines are found by one small
+query per end (:func:`surface_points_near`) and tested all at once by numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from evmap.maps.merging import Merged
+from evmap.sources.config import Config
+
+if TYPE_CHECKING:
+    from evmap.maps.belief_map import BeliefMap
+
+__all__ = ["SURFACE_KINDS", "NearEnds", "end_moves", "refits", "surface_points_near"]
+
+SURFACE_KINDS = ("corner", "endpoint")
+"""The kinds of points that end lines (an unidentified object ends none)."""
+
+
+def surface_points_near(bm: BeliefMap, xy: NDArray[np.float64], reach: float) -> list[str]:
+    """The corners and end points (sorted) in the boxes reaching ``reach`` around each of the points ``xy``:
+    one small query per point, so the cost is what is near them however far apart they are."""
+    g = bm.graph
+    found: set[str] = set()
+    for x, y in xy.tolist():
+        found |= bm.near((x - reach, y - reach, x + reach, y + reach), "points")
+    return sorted(n for n in found if g.nodes[n]["kind"] in SURFACE_KINDS)
+
+
+def refits(
+    bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, dissolved: dict[str, tuple[str, str]], config: Config
+) -> tuple[dict[int, str], dict[str, NDArray[np.float64]], NearEnds]:
+    """The merged lines that only refit a line of the map (merged line -> the line it refits), the new
+    fit of each such line (its ends in the order of the line's end points), and the line ends near them
+    (for :func:`end_moves`).
+
+    A merged line refits the map's line L when its members are all of L's
+    members and segments of no line, its direction is within ``angle_deg`` of
+    L's fit and its ends within ``min(merge distance, corner distance / 2)`` of
+    L's, and each end of L can follow without the corners changing
+    (:func:`end_moves`): a free end point meeting no other line's end, or a
+    corner of L and one other line whose end it still meets and no other (the
+    corner moves to the new midpoint). L then stays in place, moved onto the
+    merged line (by the rebuild), as a whole rebuild would find it.
+    """
+    store = bm.segments
+    g = bm.graph
+    cos_tol = np.cos(np.radians(config.merge.angle_deg))
+    move = min(config.merge.distance, config.corners.distance / 2)
+    fits: dict[str, NDArray[np.float64]] = {}
+    lines_of: dict[str, int] = {}
+    for k, group in enumerate(merged.groups):
+        rows = pool[group]
+        owners = set(store.line[rows].tolist()) - {""}
+        if len(owners) != 1:
+            continue
+        (lid,) = owners
+        data = g.edges[dissolved[lid]]
+        if not set(data["members"]) <= set(rows.tolist()):
+            continue
+        old = np.asarray(data["fit"], dtype=float)
+        new = np.stack([merged.p[k], merged.q[k]])
+        if np.hypot(*(new - old[::-1]).T).max() < np.hypot(*(new - old).T).max():
+            new = new[::-1]
+        u, v = old[1] - old[0], new[1] - new[0]
+        cos = abs(float(u @ v)) / (np.hypot(*u) * np.hypot(*v))
+        if np.hypot(*(new - old).T).max() <= move and cos >= cos_tol:
+            fits[lid], lines_of[lid] = new, k
+    if not fits:
+        return {}, fits, NearEnds([], np.zeros((0, 2)), np.zeros((0, 2)))
+    ends = np.concatenate(list(fits.values()))
+    points = surface_points_near(bm, ends, 3 * config.corners.distance + move)
+    neighbours = [(d["id"], n) for n in points for _, _, d in g.edges(n, data=True)]
+    stored = np.array([g.edges[bm.ends(m)]["fit"] for m, _ in neighbours], dtype=float).reshape(-1, 2, 2)
+    end = np.array([bm.ends(m).index(n) for m, n in neighbours], dtype=np.intp)
+    rows: dict[str, list[int]] = {}
+    for i, (m, _) in enumerate(neighbours):
+        rows.setdefault(m, []).append(i)
+    while True:  # a line follows its new fit only if the lines its ends meet can follow theirs
+        lines = stored.copy()
+        for lid, fit in fits.items():
+            lines[rows.get(lid, [])] = fit
+        d = lines[:, 1] - lines[:, 0]
+        near = NearEnds(neighbours, lines[np.arange(len(end)), end], d / np.hypot(*d.T)[:, None])
+        moves = end_moves(bm, fits, near, config)
+        failed = {lid for lid, move in moves.items() if move is None}
+        if not failed:
+            return {lines_of[lid]: lid for lid in fits}, fits, near
+        for lid in failed:
+            del fits[lid]
+
+
+@dataclass(frozen=True)
+class NearEnds:
+    """The (line, point) pairs near refitted lines, the fit end of each line at its point, each line's unit
+    direction (refitted lines with their new fits)."""
+
+    pairs: list[tuple[str, str]]
+    ends: NDArray[np.float64]
+    u: NDArray[np.float64]
+
+
+def end_moves(
+    bm: BeliefMap, fits: dict[str, NDArray[np.float64]], near: NearEnds, config: Config
+) -> dict[str, list[tuple[str, tuple[float, float]]] | None]:
+    """Where the end points of each line of ``fits`` go when the lines take their new fits: a free end onto
+    its fit end, a corner of two lines to the midpoint of their fit ends; None for a line whose corners would
+    change (an end meeting an end of ``near`` that it did not meet, or leaving its corner's other line).
+    """
+    g = bm.graph
+    cos_max = np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
+    lids = list(fits)
+    own = np.array([fits[lid] for lid in lids], dtype=float).reshape(-1, 2, 2)
+    u = own[:, 1] - own[:, 0]
+    u /= np.hypot(*u.T)[:, None]
+    ends = own.reshape(-1, 2)  # line k's end e is row 2k + e
+    dist = np.hypot(*(ends[:, None, :] - near.ends[None, :, :]).transpose(2, 0, 1))
+    across = np.abs(np.repeat(u, 2, axis=0) @ near.u.T) <= cos_max
+    close = (dist <= config.corners.distance + 1e-9) & across
+    moves: dict[str, list[tuple[str, tuple[float, float]]] | None] = {}
+    for k, lid in enumerate(lids):
+        found: list[tuple[str, tuple[float, float]]] | None = []
+        for e, node in enumerate(bm.ends(lid)):
+            end = ends[2 * k + e]
+            meets = [i for i in np.flatnonzero(close[2 * k + e]).tolist() if near.pairs[i][0] != lid]
+            kind = g.nodes[node]["kind"]
+            if kind == "endpoint" and not meets:
+                found.append((node, (float(end[0]), float(end[1]))))
+            elif kind == "corner" and g.degree(node) == 2 and len(meets) == 1 and near.pairs[meets[0]][1] == node:
+                mid = (end + near.ends[meets[0]]) / 2
+                found.append((node, (float(mid[0]), float(mid[1]))))
+            else:
+                found = None
+                break
+        moves[lid] = found
+    return moves
