@@ -93,12 +93,13 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--scheduler", help="as evmap compare's (default: a local cluster)")
     parser.add_argument("--configs", default="paper,default", help="comma-separated configs (default: %(default)s)")
+    parser.add_argument("--rules", default=",".join(DEFAULT_RULES), help="comma-separated rules (default: %(default)s)")
     args = parser.parse_args()
     configs = args.configs.split(",")
     print("### Other scenarios\n")
     print(scenario_table(configs))
     comparison = run_comparison(
-        DEFAULT_RULES, args.worlds, args.seed, scheduler=args.scheduler, progress=True, configs=configs
+        args.rules.split(","), args.worlds, args.seed, scheduler=args.scheduler, progress=True, configs=configs
     )
     print(
         f"\n### Rules on {args.worlds} generated worlds (`evmap compare ... --worlds {args.worlds} --seed {args.seed}`)\n"

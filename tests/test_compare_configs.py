@@ -21,6 +21,7 @@ from evmap.maps.app.compare_hazards import (
 from evmap.maps.occupancy import FREE_MAX, occupancy_from_masses, occupancy_masses
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import default_scenario, parse_scenario
+from evmap.sources.sim.worldgen import WorldGenParams
 
 ROOM = parse_scenario(
     """
@@ -59,17 +60,22 @@ def test_a_source_added_to_the_paper_is_the_default_configs_source():
 
 
 def test_configs_side_by_side_give_what_each_gives_alone():
-    both = run_comparison(["dempster"], 2, 3, configs=("paper", "default"), scheduler="synchronous", progress=False)
+    one_pose = WorldGenParams(single_pose_share=1)
+    both = run_comparison(
+        ["dempster"], 2, 3, configs=("paper", "default"), params=one_pose, scheduler="synchronous", progress=False
+    )
     assert [(r["config"], r["rule"]) for r in both.summary] == [("paper", "dempster"), ("default", "dempster")]
     for name in ("paper", "default"):
-        alone = run_comparison(["dempster"], 2, 3, configs=(name,), scheduler="synchronous", progress=False)
+        alone = run_comparison(
+            ["dempster"], 2, 3, configs=(name,), params=one_pose, scheduler="synchronous", progress=False
+        )
         mine = [_untimed(r) for r in both.rows if r["config"] == name]
         assert mine == [_untimed(r) for r in alone.rows]
 
 
 def test_the_command_writes_one_row_per_config_and_rule_with_pooled_ratios(tmp_path, capsys):
     out = tmp_path / "cmp"
-    argv = ["compare", "--configs", "paper,paper+contour_free", "--rules", "dempster,yager", "--worlds", "2"]
+    argv = ["compare", "--configs", "paper,paper+contour_free", "--rules", "dempster,yager", "--worlds", "1"]
     assert main([*argv, "--seed", "1", "--out", str(out), "--scheduler", "synchronous", "--quiet"]) == 0
     assert "| paper+contour_free | yager |" in capsys.readouterr().out
     summary = list(csv.DictReader((out / "summary.csv").open()))

@@ -96,7 +96,7 @@ def compare_world(
 
     ``configs``: names of :func:`~evmap.maps.app.compare_configs.resolve_config`.
 
-    >>> r = compare_world(0, 1, ["dempster", "bayes"], ["paper", "default"])
+    >>> r = compare_world(0, 1, ["dempster", "bayes"], ["paper", "default"], WorldGenParams(single_pose_share=1))
     >>> r.world, [(row["config"], row["rule"]) for row in r.rows][:3], r.beliefs["paper", "bayes"].shape
     ('world-0000', [('paper', 'dempster'), ('paper', 'bayes'), ('default', 'dempster')], (2, 20))
     """
@@ -249,7 +249,8 @@ def run_comparison(rules: Sequence[str], worlds: int, seed: int, **options: Any)
 
     ``options`` are those of :func:`iter_results`. For big runs stream instead (``evmap compare`` does).
 
-    >>> c = run_comparison(["dempster", "yager"], 2, 1, scheduler="synchronous", progress=False)
+    >>> one_pose = WorldGenParams(single_pose_share=1)
+    >>> c = run_comparison(["dempster", "yager"], 2, 1, params=one_pose, scheduler="synchronous", progress=False)
     >>> [(row["config"], row["rule"]) for row in c.summary], len(c.rows), sorted(c.scenarios)
     ([('default', 'dempster'), ('default', 'yager')], 4, ['world-0000', 'world-0001'])
     """
