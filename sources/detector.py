@@ -27,11 +27,22 @@ from pydantic import Field, Strict, model_validator
 
 from evmap.sources.sensor_kinds import SensorSpec
 
-__all__ = ["DETECTOR_ARRAYS", "DETECTOR_CATEGORIES", "MAX_FALSE_ALARMS", "DetectorSpec", "detector_features"]
+__all__ = [
+    "DETECTOR_ARRAYS",
+    "DETECTOR_CATEGORIES",
+    "MAX_FALSE_ALARMS",
+    "MAX_PATCHES",
+    "DetectorSpec",
+    "detector_features",
+]
 
 MAX_FALSE_ALARMS = 1_000
 """Most false reports a detector expects per scan (``false_alarms`` over its range and field of view).
 100,000 per scan (1,000 per metre up to 100 m) took 40 s over 10 poses (``benchmarks/bench_limits.py``)."""
+
+MAX_PATCHES = 200_000
+"""Most surface patches a simulated detector cuts a world's walls into (``patch`` metres each): 1,000 wall
+segments of 1e7 m in patches of 1 cm would be 1e12 points; 200,000 take about 10 MB a pose."""
 
 Material = Annotated[str, Strict(), Field(min_length=1, max_length=200)]
 Point = tuple[Annotated[float, Field(ge=0, le=100)], Annotated[float, Field(ge=0, le=1000)]]

@@ -16,7 +16,7 @@ import pytest
 import yaml
 
 from evmap import configs
-from evmap.sources.config import check_simulated_run, load_config
+from evmap.sources.config import check_simulated_run, config_from_data, load_config
 from evmap.sources.detector import MAX_FALSE_ALARMS
 from evmap.sources.loading import MAX_DEPTH, MAX_FILE_BYTES, MAX_NODES, InputError, parse_document, read_document
 from evmap.sources.params import MAX_STRIPE_POINTS, LslParams, SonarParams
@@ -300,3 +300,28 @@ def test_utm_sized_coordinates_give_the_same_observations() -> None:
     original, moved = (observe_lsl_all(world, LslParams()) for world in worlds)
     assert len(moved) == len(original)
     assert (moved.truth == "noise").sum() == (original.truth == "noise").sum() > 0
+
+
+def test_a_detector_that_would_cut_the_walls_into_too_many_patches_is_refused() -> None:
+    """Walls far longer than any room, in patches of 1 cm: refused before a single patch is made."""
+    from evmap.maps.observation import observe
+    from evmap.sources.detector import MAX_PATCHES
+
+    config = load_config(configs.path("examples/radar.yaml"))
+    world = World(
+        parse_scenario(
+            """
+version: 1
+name: long
+world: {walls: [{id: w, points: [[-5000, 2], [5000, 2]]}]}
+robot: {poses: [[0, 0, 0]]}
+""",
+            "long.yaml",
+        )
+    )
+    data = config.to_data()
+    data["extra_sensors"]["radar"]["patch"] = 0.01
+    fine = config_from_data(data, "fine.yaml")
+    with pytest.raises(ValueError, match=rf"into 1000000 patches, more than the limit of {MAX_PATCHES}"):
+        observe(world, 0, fine)
+    assert observe(world, 0, config).features  # the example's 0.2 m patches: 50,000

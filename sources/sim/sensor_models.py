@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.sources.contour_property import CONTOUR_ARRAYS, ContourPropertySpec, contour_features
-from evmap.sources.detector import DETECTOR_ARRAYS, DETECTOR_CATEGORIES, DetectorSpec, detector_features
+from evmap.sources.detector import DETECTOR_ARRAYS, DETECTOR_CATEGORIES, MAX_PATCHES, DetectorSpec, detector_features
 from evmap.sources.geometry import cast_rays
 from evmap.sources.range_sensor import RANGE_ARRAYS, RANGE_CATEGORIES, RangeSpec, range_features
 from evmap.sources.readings import LslSegments
@@ -116,6 +116,11 @@ def simulate_detector(
     s, c = np.isin(seg_mat, spec.materials), np.isin(cyl_mat, spec.materials)
     p, q = surfaces.p[s], surfaces.q[s]
     count = np.maximum(np.ceil(np.hypot(*(q - p).T) / spec.patch).astype(np.intp), 1)
+    if count.sum() > MAX_PATCHES:
+        raise ValueError(
+            f"a detector's patch of {spec.patch} m cuts the walls of {sorted(spec.materials)} into {int(count.sum())} "
+            f"patches, more than the limit of {MAX_PATCHES}: use a larger patch"
+        )
     owner = np.repeat(np.arange(len(p)), count)
     t = (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count) + 0.5) / np.repeat(count, count)
     patches = p[owner] + t[:, None] * (q - p)[owner]
