@@ -23,6 +23,7 @@ from evmap.maps.occupancy import FREE_MAX, occupancy_from_masses, occupancy_mass
 from evmap.sources.config import Config
 from evmap.sources.geometry import cast_rays, point_segment_distances
 from evmap.sources.sim.sightings import seen_twice
+from evmap.sources.sim.surfaces import Surfaces
 from evmap.sources.sim.world import World
 
 __all__ = [
@@ -32,6 +33,7 @@ __all__ = [
     "free_behind_walls",
     "spurious_unidentified",
     "sunlight_seen_twice",
+    "surface_distances",
 ]
 
 SPURIOUS_FAR = 0.3
@@ -51,19 +53,23 @@ def spurious_unidentified(bm: BeliefMap, world: World) -> tuple[int, int]:
     xy = np.array([u.xy for u in bm.unidentified()], dtype=float).reshape(-1, 2)
     if not len(xy):
         return 0, 0
-    s = world.surfaces()
-    far = np.full(len(xy), np.inf)
-    if len(s.p):
-        far = point_segment_distances(xy[:, None, :], s.p[None], s.q[None]).min(axis=1)
-    if len(s.cylinder_radii):
-        rim = np.abs(np.hypot(*(xy[:, None, :] - s.cylinder_centers[None]).transpose(2, 0, 1)) - s.cylinder_radii)
-        far = np.minimum(far, rim.min(axis=1))
-    spurious = far > SPURIOUS_FAR
+    spurious = surface_distances(xy, world.surfaces()) > SPURIOUS_FAR
     lines = bm.lines(min_belief=0.5)
     if lines:
         p, q = np.array([ln.p for ln in lines]), np.array([ln.q for ln in lines])
         spurious |= point_segment_distances(xy[:, None, :], p[None], q[None]).min(axis=1) <= SPURIOUS_ON_LINE
     return int(spurious.sum()), len(xy)
+
+
+def surface_distances(xy: NDArray[np.float64], s: Surfaces) -> NDArray[np.float64]:
+    """Distance (m) from each point (N, 2) to the nearest true surface: a wall, or a cylinder's rim."""
+    d = np.full(len(xy), np.inf)
+    if len(s.p):
+        d = point_segment_distances(xy[:, None, :], s.p[None], s.q[None]).min(axis=1)
+    if len(s.cylinder_radii):
+        rim = np.abs(np.hypot(*(xy[:, None, :] - s.cylinder_centers[None]).transpose(2, 0, 1)) - s.cylinder_radii)
+        d = np.minimum(d, rim.min(axis=1))
+    return d
 
 
 def free_behind_walls(bm: BeliefMap, world: World) -> tuple[int, int]:

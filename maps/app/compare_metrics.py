@@ -35,6 +35,7 @@ from evmap.maps.app.compare_hazards import (
     SPURIOUS_ON_LINE,
     free_behind_walls,
     spurious_unidentified,
+    surface_distances,
 )
 from evmap.maps.app.metrics import share
 from evmap.maps.app.run import Run
@@ -249,13 +250,7 @@ def map_error(p: Sequence[Any], q: Sequence[Any], surfaces: Surfaces) -> float |
     line = np.repeat(np.arange(len(p)), count)
     t = (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)) / np.repeat(count - 1, count)
     points = p[line] + t[:, None] * (q - p)[line]
-    d = np.full(len(points), np.inf)
-    if len(surfaces.segments):
-        d = point_segment_distances(points[:, None], surfaces.p, surfaces.q).min(axis=1)
-    if len(surfaces.cylinder_radii):
-        to_center = np.hypot(*(points[:, None, :] - surfaces.cylinder_centers[None]).transpose(2, 0, 1))
-        d = np.minimum(d, np.abs(to_center - surfaces.cylinder_radii).min(axis=1))
-    return float(d.mean())
+    return float(surface_distances(points, surfaces).mean())
 
 
 def line_beliefs(run: Run) -> tuple[NDArray[np.float64], NDArray[np.str_]]:
