@@ -5,7 +5,18 @@ Each remembered pose (:mod:`evmap.maps.sensed`) gives free space twice over:
 - its sonar open space (:func:`evmap.sources.open_space.open_space` of its scan,
   with the map's config), the sectors from the sensor to the first echo;
 - its contour rays: the fan between neighbouring rays that both returned (at most
-  ``max_gap`` apart in bearing), from the sensor to ``margin`` short of their points.
+  ``max_gap`` apart in bearing), from the sensor to ``margin`` short of the nearer
+  point (across a jump in range, what lies between the two rays beyond the nearer
+  point was not seen).
+
+The contour bounds the sonar's free space of its own pose (:func:`contour_bound`):
+a stripe point at range d is an opaque surface, so a sonar sector that reaches
+beyond it on that bearing did not come from a direct echo (a double bounce, or
+sound through an opening the sonar cannot resolve). Where the stripe returned
+nothing between two points at most ``bridge`` apart (a window: glass lets the
+stripe through, and the sonar, at oblique incidence, hears a double bounce), the
+chord between the two points bounds it. Bearings the contour did not look at,
+and wider gaps, leave the sonar's free space as it is.
 
 A sensor sees nothing behind a surface, so each pose's free space ends at the
 first believed line (``Bel(real) >= min_belief``) that it meets: the line's
@@ -20,7 +31,7 @@ grid of the run.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -29,13 +40,14 @@ from numpy.typing import NDArray
 
 from evmap.maps.planner import lines
 from evmap.maps.sensed import Sensed, sensed
+from evmap.sources.geometry import point_segment_distances
 from evmap.sources.open_space import open_space
 from evmap.sources.rcd import extract_rcds
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["FreeSpaceParams", "free_space", "ray_fan", "shadows"]
+__all__ = ["FreeSpaceParams", "contour_bound", "free_space", "ray_fan", "shadows", "surface_rays"]
 
 
 @dataclass(frozen=True)
@@ -45,6 +57,7 @@ class FreeSpaceParams:
     margin: float = 0.05  # a ray's free space ends this short of its point
     max_gap: float = np.radians(2.0)  # neighbouring rays farther apart than this bound no free space
     min_belief: float = 0.5  # lines believed at least this much end the free space
+    bridge: float = 2.5  # a gap in the stripe between points at most this far apart (m) is bridged
 
 
 def ray_fan(s: Sensed, params: FreeSpaceParams) -> shapely.Geometry:
@@ -61,10 +74,91 @@ def ray_fan(s: Sensed, params: FreeSpaceParams) -> shapely.Geometry:
     pair = np.flatnonzero(ok[:-1] & ok[1:] & (np.diff(s.bearing) <= params.max_gap))
     if not len(pair):
         return shapely.Polygon()
-    ends = s.origin + r[:, None] * np.column_stack([np.cos(s.bearing), np.sin(s.bearing)])
+    near = np.minimum(r[pair], r[pair + 1])  # across a jump in range, only the nearer is known free
+    u = np.column_stack([np.cos(s.bearing), np.sin(s.bearing)])
     o = np.broadcast_to(s.origin, (len(pair), 2))
-    rings = np.stack([o, ends[pair], ends[pair + 1], o], axis=1)
+    rings = np.stack([o, o + near[:, None] * u[pair], o + near[:, None] * u[pair + 1], o], axis=1)
     return shapely.union_all(shapely.polygons(rings))
+
+
+def surface_rays(bm: BeliefMap, s: Sensed, params: FreeSpaceParams, believed: bool = False) -> Sensed:
+    """The pose's readings with the rays that ended on no surface taken as returning nothing.
+
+    A phantom's stripe points are pixels, not a surface: the rays that ended on the pose's own
+    segments judged noise bound nothing; with ``believed``, only the rays
+    that ended on a line believed real (``Bel(real) >= min_belief``) do.
+    """
+    if believed:
+        kept = lines(bm, params.min_belief)
+        p = np.array([ln.p for ln in kept], dtype=float).reshape(-1, 2)
+        q = np.array([ln.q for ln in kept], dtype=float).reshape(-1, 2)
+        drop = np.isfinite(s.range) & ~_rays_on(s, p, q, params.margin)
+    else:
+        store = bm.segments
+        noise = np.flatnonzero((store.pose == s.pose_index) & store.eliminated)
+        drop = _rays_on(s, store.p[noise], store.q[noise], params.margin)
+    if not drop.any():
+        return s
+    return replace(s, range=np.where(drop, np.nan, s.range))
+
+
+def _rays_on(s: Sensed, p: NDArray[np.float64], q: NDArray[np.float64], margin: float) -> NDArray[np.bool_]:
+    """Which rays ended within ``margin`` of a segment p-q."""
+    on = np.zeros(len(s.range), dtype=bool)
+    ok = np.flatnonzero(np.isfinite(s.range))
+    if len(ok) and len(p):
+        xy = s.origin + s.range[ok, None] * np.column_stack([np.cos(s.bearing[ok]), np.sin(s.bearing[ok])])
+        on[ok] = point_segment_distances(xy[:, None], p[None], q[None]).min(axis=1) <= margin
+    return on
+
+
+def contour_bound(s: Sensed, params: FreeSpaceParams, reach: float, points: bool = True) -> shapely.Geometry | None:
+    """What the contour of one pose leaves possible to be free: the star polygon through its stripe points.
+
+    Each returned ray bounds it at its point (less ``margin``; at ``reach`` when not ``points``); a run of rays
+    that returned
+    nothing, between two returned rays whose points are at most ``bridge`` apart, at the chord
+    between those points; other rays, and bearings with no ray (more than ``max_gap`` from the
+    nearest), at ``reach``. None when the pose has no returned ray.
+
+    >>> bearing = np.radians(np.arange(-180.0, 180.0, 1.0))
+    >>> rng = np.where(np.abs(bearing) < np.radians(60), 1 / np.cos(bearing), np.nan)  # a wall x = 1
+    >>> rng[np.abs(bearing) < np.radians(20)] = np.nan  # a window in it: nothing returned
+    >>> bound = contour_bound(Sensed(0, np.zeros(2), bearing, rng, None), FreeSpaceParams(), 10.0)
+    >>> [bool(bound.contains(shapely.Point(x, 0))) for x in (0.9, 1.1)]  # bridged at the window
+    [True, False]
+    >>> bool(bound.contains(shapely.Point(-5, 0)))  # nothing returned behind: not bounded
+    True
+    """
+    ok = np.isfinite(s.range) & (s.range > 0)
+    if not ok.any():
+        return None
+    theta = s.bearing
+    u = np.column_stack([np.cos(theta), np.sin(theta)])
+    radius = np.where(ok & points, s.range, reach)
+    # runs of unreturned rays between returned ones (cyclic), bridged when the points are close
+    idx = np.flatnonzero(ok)
+    nxt = np.roll(idx, -1)
+    span = (theta[nxt] - theta[idx]) % (2 * np.pi)
+    pts = s.origin + s.range[idx, None] * u[idx]
+    chord = pts[np.roll(np.arange(len(idx)), -1)] - pts
+    missing = (nxt - idx - 1) % len(theta)  # rays between the two that returned nothing
+    bridged = (missing > 0) & (np.hypot(*chord.T) <= params.bridge) & (span < np.pi) & (span > 0)
+    for k in np.flatnonzero(bridged):
+        run = np.arange(idx[k] + 1, idx[k] + 1 + missing[k]) % len(theta)
+        a, e = pts[k] - s.origin, chord[k]
+        cross = u[run, 0] * e[1] - u[run, 1] * e[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (a[0] * e[1] - a[1] * e[0]) / cross
+        radius[run] = np.where(np.isfinite(t) & (t > 0), np.minimum(t, reach), reach)
+    radius = np.maximum(radius - params.margin, 0.0)
+    # bearings no ray looked at: out to reach
+    gap = np.flatnonzero(np.diff(np.append(theta, theta[0] + 2 * np.pi)) > params.max_gap)
+    t_all = np.concatenate([theta, theta[gap] + 1e-6, np.append(theta, theta[0] + 2 * np.pi)[gap + 1] - 1e-6])
+    r_all = np.concatenate([radius, np.full(2 * len(gap), reach)])
+    order = np.argsort(t_all, kind="stable")
+    ring = s.origin + r_all[order, None] * np.column_stack([np.cos(t_all[order]), np.sin(t_all[order])])
+    return shapely.make_valid(shapely.Polygon(ring))
 
 
 def shadows(
@@ -102,7 +196,9 @@ def free_space(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shapely.
     for s in poses:
         seen = [ray_fan(s, params)]
         if s.sonar is not None:
-            seen.append(open_space(s.sonar, extract_rcds(s.sonar, config.rcd, primitive=True), config.open_space))
+            sonar = open_space(s.sonar, extract_rcds(s.sonar, config.rcd, primitive=True), config.open_space)
+            bound = contour_bound(surface_rays(bm, s, params), params, s.sonar.params.max_range + 1.0)
+            seen.append(sonar if bound is None else shapely.intersection(sonar, bound))
         free = shapely.union_all(seen)
         if len(p) and not free.is_empty:
             xmin, ymin, xmax, ymax = free.bounds

@@ -38,7 +38,7 @@ from evmap.maps.rebuild import rebuild, refresh_points
 from evmap.maps.reinforcement import reinforce
 from evmap.maps.sensed import features_checkpoint, forget, remember
 from evmap.maps.simulated_sonar import check_sonar
-from evmap.maps.unidentified import add_unidentified
+from evmap.maps.unidentified import add_unidentified, drop_explained
 from evmap.sources.config import Config
 from evmap.sources.open_space import open_space
 from evmap.sources.rcd import Rcds, extract_rcds
@@ -126,6 +126,8 @@ def _fold(bm: BeliefMap, obs: Observation, config: Config) -> PoseOutcome:
     unidentified = add_unidentified(bm, check, pose, obs.pose_index, config)
     reinforced_lines = {i for i in categories if i in bm and bm.is_line(i)}
     refresh_points(bm, touched_lines | reinforced_lines, config)
+    dropped = set(drop_explained(bm, config))
+    unidentified = [u for u in unidentified if u not in dropped]
     return PoseOutcome(
         obs.pose_index,
         new,

@@ -34,6 +34,7 @@ __all__ = [
     "forget",
     "keep_features",
     "kept_features",
+    "pose_sensed",
     "remember",
     "sensed",
     "sensed_from_json",
@@ -121,6 +122,11 @@ def sensed(bm: BeliefMap) -> list[Sensed]:
     """The readings of every pose remembered for this map, by pose index."""
     memory = _memory(bm)
     return [memory[k] for k in sorted(memory)]
+
+
+def pose_sensed(bm: BeliefMap, pose_index: int) -> Sensed | None:
+    """What one pose sensed, if the map remembers it."""
+    return _memory(bm).get(int(pose_index))
 
 
 def _floats(values: NDArray[np.float64]) -> list[float | None]:

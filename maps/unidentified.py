@@ -9,8 +9,14 @@ RCD is placed on the part of its arc that the map does not explain: an arc
 point within ``unidentified.explained_distance`` of a believed map line
 (:data:`BELIEVED`) may be that line's echo (the matching missed it: the line's
 own simulated RCD is cut differently, merged with a neighbour's, or shifted
-past a gate). An RCD whose whole arc is explained makes no object; one beside a
-wall (a window in it) makes its object on the part beside the line.
+past a gate). With ``unidentified.behind_contour``, an arc point beyond the
+pose's own stripe (:func:`evmap.maps.free_space.contour_bound`: its points, and
+the chords across gaps in it) is explained too: sound does not come back
+through the surface the stripe measured, so the echo is a multiple reflection.
+An RCD whose whole arc is explained makes no object; one beside a wall (a
+window in it) makes its object on the part beside the line. An object that a
+believed line comes to explain as later poses extend the lines is removed
+(:func:`drop_explained`).
 """
 
 from __future__ import annotations
@@ -18,9 +24,12 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 
 from evidential import MassFunction
+from evmap.maps.free_space import FreeSpaceParams, contour_bound, surface_rays
+from evmap.maps.sensed import pose_sensed
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.sources.config import Config
 from evmap.sources.geometry import point_segment_distances
@@ -29,7 +38,7 @@ from evmap.sources.rcd import TYPE_IV, TYPE_NAMES
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["BELIEVED", "add_unidentified"]
+__all__ = ["BELIEVED", "add_unidentified", "drop_explained"]
 
 BELIEVED = 0.5
 """A map line with Bel(real) at least this explains the echoes on it (``unidentified.explained_distance``)."""
@@ -49,8 +58,9 @@ def add_unidentified(
     keep = unmatched[actual.type[unmatched] != TYPE_IV]
     keep = keep[np.argsort(actual.type[keep], kind="stable")]  # the strongest evidence first
     targets = pose[:2] + actual.range[keep, None] * _unit(actual.direction[keep])
-    if config.unidentified.explained_distance > 0 and len(keep):  # the map's own echoes are no objects
-        keep, targets = _unexplained(bm, check, pose, keep, config.unidentified.explained_distance)
+    params = config.unidentified
+    if (params.explained_distance > 0 or params.behind_contour) and len(keep):  # the map's own echoes are no objects
+        keep, targets = _unexplained(bm, check, pose, pose_index, keep, config)
     stage = config.stage_sources("unidentified")
     rows = [source.masses({"rcd_type": np.array([TYPE_NAMES[t] for t in actual.type[keep]])}) for source in stage]
     radius = config.unidentified.merge_radius
@@ -87,27 +97,62 @@ def add_unidentified(
     return done
 
 
+def drop_explained(bm: BeliefMap, config: Config) -> list[str]:
+    """Remove the unidentified objects a believed line now explains (within ``unidentified.explained_distance``).
+
+    An object placed where the map had no believed line may find one there as later
+    poses extend or confirm the lines: its echo is that line's. Nothing is removed when
+    ``explained_distance`` is 0 (the paper's method). Returns the removed ids.
+    """
+    distance = config.unidentified.explained_distance
+    if distance <= 0:
+        return []
+    g = bm.graph
+    removed = []
+    for u in bm.unidentified():
+        x, y = u.xy
+        near = [n for n in bm.near((x - distance, y - distance, x + distance, y + distance), "lines")]
+        near = [n for n in near if bm.mass(n).belief("real") >= BELIEVED]
+        if not near:
+            continue
+        ends = [bm.ends(n) for n in near]
+        p = np.array([g.nodes[a]["xy"] for a, _ in ends], dtype=float)
+        q = np.array([g.nodes[b]["xy"] for _, b in ends], dtype=float)
+        if point_segment_distances(np.array([x, y]), p, q).min() <= distance:
+            bm.remove_point(u.id)
+            removed.append(u.id)
+    return removed
+
+
 ARC_SAMPLES = 9
 """Points along an RCD's arc checked against the map's lines."""
 
 
 def _unexplained(
-    bm: BeliefMap, check: SonarCheck, pose: NDArray[np.float64], keep: NDArray[np.intp], distance: float
+    bm: BeliefMap, check: SonarCheck, pose: NDArray[np.float64], pose_index: int, keep: NDArray[np.intp], config: Config
 ) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
-    """The RCDs of ``keep`` whose arc the map's believed lines do not explain, each with its object's place.
+    """The RCDs of ``keep`` whose arc the map does not explain (module doc), each with its object's place.
 
-    The place is the arc point the lines leave unexplained nearest the RCD's direction.
+    The place is the arc point left unexplained nearest the RCD's direction.
     """
-    actual, s = check.actual, check.surfaces
-    believed = np.array([bm.mass(line).belief("real") >= BELIEVED for line in s.segment_ids], dtype=bool)
+    actual, s, params = check.actual, check.surfaces, config.unidentified
     steps = np.linspace(-0.5, 0.5, ARC_SAMPLES)
     angles = actual.direction[keep, None] + actual.width[keep, None] * steps  # (R, ARC_SAMPLES)
     arc = pose[:2] + actual.range[keep, None, None] * _unit(angles)
-    if not believed.any():
-        free = np.ones(angles.shape, dtype=bool)
-    else:
+    free = np.ones(angles.shape, dtype=bool)
+    believed = np.array([bm.mass(line).belief("real") >= BELIEVED for line in s.segment_ids], dtype=bool)
+    if params.explained_distance > 0 and believed.any():
         p, q = s.p[believed], s.q[believed]
-        free = point_segment_distances(arc[..., None, :], p, q).min(axis=-1) > distance
+        free &= point_segment_distances(arc[..., None, :], p, q).min(axis=-1) > params.explained_distance
+    sensed = pose_sensed(bm, pose_index) if params.behind_contour else None
+    if sensed is not None:
+        shape = FreeSpaceParams(bridge=0.0)  # a gap in the stripe may be a corner, not a pane: no chord
+        surfaces = surface_rays(bm, sensed, shape, believed=True)
+        bound = contour_bound(surfaces, shape, float(actual.range[keep].max()) + 1.0)
+        if bound is not None:  # the arc point pulled back by the margins must lie inside the stripe's bound
+            back = actual.range[keep, None, None] - params.occlusion_margin - shape.margin
+            inner = pose[:2] + np.maximum(back, 0.0) * _unit(angles)
+            free &= shapely.contains_xy(bound, inner[..., 0], inner[..., 1])
     best = np.argmin(np.where(free, np.abs(steps), np.inf), axis=1)
     ok = free.any(axis=1)
     return keep[ok], arc[np.flatnonzero(ok), best[ok]]

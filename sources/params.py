@@ -161,3 +161,9 @@ class UnidentifiedParams(_Params):
         description="an unmatched RCD whose target lies this close to a map line is that line's echo, not an "
         "object (m); 0, the paper's method: every unmatched RCD in sight is an object",
     )
+    behind_contour: bool = Field(
+        False,
+        description="an unmatched RCD whose target lies beyond the pose's own stripe (its points, and the chords "
+        "across gaps in it) is a multiple reflection, not an object: sound does not come back through the surface "
+        "the stripe measured; false, the paper's method",
+    )

@@ -16,15 +16,16 @@ from evmap.maps.app.compare_hazards import (
     SPURIOUS_FAR,
     SPURIOUS_ON_LINE,
     free_behind_walls,
+    free_seen_kept,
     spurious_unidentified,
+    stripe_seen,
 )
 from evmap.maps.occupancy import FREE_MAX, occupancy_from_masses, occupancy_masses
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import default_scenario, parse_scenario
 from evmap.sources.sim.worldgen import WorldGenParams
 
-ROOM = parse_scenario(
-    """
+ROOM_YAML = """
 version: 1
 name: room
 seed: 4
@@ -35,9 +36,8 @@ world:
     - {polygon: [[1.5, 1.3], [3.5, 1.3], [3.5, 2.1], [1.5, 2.1]], lines: 12, length: [0.1, 0.4]}
 robot:
   poses: [[2.5, 2.8, 0], [4.5, 1.0, 90]]
-""",
-    "room.yaml",
-)
+"""
+ROOM = parse_scenario(ROOM_YAML, "room.yaml")
 
 
 def test_config_names_expand_the_ablation_and_refuse_what_cannot_be_built():
@@ -98,7 +98,7 @@ def test_the_command_writes_one_row_per_config_and_rule_with_pooled_ratios(tmp_p
 
 def test_free_cells_behind_the_walls_of_a_closed_room_are_those_outside_it():
     run = fuse_rules(ROOM, load_config("paper"), ["dempster"])["dempster"]
-    behind, free = free_behind_walls(run.map, run.world)
+    behind, behind_opaque, free = free_behind_walls(run.map, run.world)
     masses, origin = occupancy_masses(run.map, GRID_RESOLUTION)
     grid = occupancy_from_masses(masses)
     rows, cols = np.nonzero((grid >= 0) & (grid <= FREE_MAX))
@@ -108,6 +108,28 @@ def test_free_cells_behind_the_walls_of_a_closed_room_are_those_outside_it():
     far_outside = int((~shapely.contains(room.buffer(2 * GRID_RESOLUTION), centres)).sum())
     assert free == len(centres) > 0
     assert far_outside <= behind <= outside  # the room is convex: nothing inside it is hidden from a pose in it
+    assert behind_opaque == behind  # its walls are opaque
+
+
+def test_what_the_stripe_saw_through_glass_is_not_behind_opaque_surfaces():
+    scenario = parse_scenario(
+        ROOM_YAML.replace(
+            "[0, 4], [0, 0]]}", "[0, 4], [0, 0]]}\n    - {id: pane, points: [[4, 0], [4, 4]], material: glass}"
+        ).replace(", [4.5, 1.0, 90]]", "]"),  # one pose, left of the pane
+        "glazed.yaml",
+    )
+    run = fuse_rules(scenario, load_config("default"), ["dempster"])["dempster"]
+    behind, behind_opaque, free = free_behind_walls(run.map, run.world)
+    assert behind_opaque < behind < free  # the pose at x = 2.5 sees the far side of the pane through it
+
+
+def test_the_places_the_stripe_saw_free_are_in_the_room_and_the_grid_keeps_them_free():
+    run = fuse_rules(ROOM, load_config("default"), ["dempster"])["dempster"]
+    seen = stripe_seen(run.world, run.config)
+    assert len(seen) > 1000
+    assert shapely.contains_xy(shapely.box(0, 0, 6, 4).buffer(-GRID_RESOLUTION), seen[:, 0], seen[:, 1]).all()
+    kept, total = free_seen_kept(run.map, seen)
+    assert total == len(seen) and kept / total > 0.9
 
 
 def test_spurious_unidentified_objects_by_their_definition():

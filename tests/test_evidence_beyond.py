@@ -156,9 +156,11 @@ def test_unidentified_objects_sit_where_the_map_explains_nothing() -> None:
     from evmap.sources.config import config_from_data
     from evmap.sources.geometry import point_segment_distances
 
-    on = load_config("default")
-    assert on.unidentified.explained_distance == 0.15 and load_config("paper").unidentified.explained_distance == 0
-    data = on.to_data()
+    default = load_config("default")
+    assert default.unidentified.explained_distance == 0.15 and load_config("paper").unidentified.explained_distance == 0
+    data = default.to_data()
+    data["unidentified"]["behind_contour"] = False
+    on = config_from_data(data, "on")
     data["unidentified"]["explained_distance"] = 0.0
     off = config_from_data(data, "off")
     beside = load_scenario(str(Path(__file__).parent / "scenarios" / "arc_beside_a_line.yaml"))
@@ -170,9 +172,49 @@ def test_unidentified_objects_sit_where_the_map_explains_nothing() -> None:
         lines = run.map.lines(min_belief=0.5)
         p, q = np.array([ln.p for ln in lines]), np.array([ln.q for ln in lines])
         assert (point_segment_distances(objects[:, None, :], p[None], q[None]).min(axis=1) > 0.15).all()
-    run = fuse_rules(default_scenario(), on, ["dempster"])["dempster"]
+    run = fuse_rules(default_scenario(), default, ["dempster"])["dempster"]
     objects = np.array([u.xy for u in run.map.unidentified()])
     s = run.world.surfaces()
-    glass = visible_glass(run.world, on)
+    glass = visible_glass(run.world, default)
     near_glass = point_segment_distances(objects[:, None, :], s.p[glass][None], s.q[glass][None]) <= GLASS_RADIUS
     assert len(glass) and near_glass.any(axis=0).all()
+
+
+def test_no_unidentified_object_is_placed_beyond_the_stripe_the_map_believes() -> None:
+    """Default config (``unidentified.behind_contour``): the corridor's double bounce that the paper's placement
+    puts behind the north wall lands on the window it came from; every object is in sight of the pose."""
+    from evmap.maps.app.compare_metrics import fuse_rules
+    from evmap.sources.config import config_from_data
+    from evmap.sources.geometry import cast_rays
+
+    default = load_config("default")
+    data = default.to_data()
+    data["unidentified"]["behind_contour"] = False
+    without = config_from_data(data, "without")
+    hidden = {}
+    for name, config in (("default", default), ("without", without)):
+        run = fuse_rules(default_scenario(), config, ["dempster"])["dempster"]
+        s, (x, y, _) = run.world.surfaces(), run.world.poses[0]
+        xy = np.array([u.xy for u in run.map.unidentified()])
+        d = xy - (x, y)
+        ranges, _ = cast_rays((x, y), np.arctan2(d[:, 1], d[:, 0]), s.p, s.q, s.cylinder_centers, s.cylinder_radii, 30)
+        hidden[name] = int((ranges < np.hypot(*d.T) - 0.1).sum())
+    assert hidden == {"default": 0, "without": 1}
+
+
+def test_an_unidentified_object_a_believed_line_comes_to_explain_is_removed() -> None:
+    from evidential import MassFunction
+    from evmap.maps import new_map
+    from evmap.maps.unidentified import drop_explained
+
+    for name, dropped in (("default", ["U1"]), ("paper", [])):
+        bm = new_map(load_config(name))
+        sure = MassFunction(bm.frame, {"real": 1.0})
+        bm.add_point("A", (0, 0), "endpoint", sure)
+        bm.add_point("B", (4, 0), "endpoint", sure)
+        bm.add_line("L", "A", "B", sure)
+        bm.add_point("U1", (2, 0.1), "unidentified", sure)  # on the line: its echo
+        bm.add_point("U2", (2, 0.5), "unidentified", sure)  # beside it
+        bm.add_point("U3", (6, 0.1), "unidentified", sure)  # past its end
+        assert drop_explained(bm, bm.config) == dropped
+        assert sorted(u.id for u in bm.unidentified()) == sorted({"U1", "U2", "U3"} - set(dropped))

@@ -6,7 +6,13 @@
   already has).
 - :func:`free_behind_walls`: free cells of the occupancy grid that no pose could
   have seen: every pose's sight line to the cell's centre meets a true surface more
-  than one cell before it.
+  than one cell before it; and of those, the cells hidden by opaque surfaces alone
+  (the rest the stripe saw through glass: free air, but beyond a pane that only the
+  sonar hears, at normal incidence).
+- :func:`free_seen_kept`: of the places the stripe saw free (:func:`stripe_seen`: a
+  lattice point in front of the first opaque surface a pose's ray meets within
+  the stripe's range, not within a cell of any surface), the share the grid marks
+  free: safety must not be bought by marking nothing free.
 - :func:`sunlight_seen_twice`: every sunlight region that a pose sees is in range and in
   sight of two poses or more (the worlds where persistence across poses can work).
 
@@ -28,10 +34,13 @@ from evmap.sources.sim.world import World
 
 __all__ = [
     "GRID_RESOLUTION",
+    "SEEN_STEP",
     "SPURIOUS_FAR",
     "SPURIOUS_ON_LINE",
     "free_behind_walls",
+    "free_seen_kept",
     "spurious_unidentified",
+    "stripe_seen",
     "sunlight_seen_twice",
     "surface_distances",
 ]
@@ -44,6 +53,9 @@ SPURIOUS_ON_LINE = 0.15
 
 GRID_RESOLUTION = 0.05
 """Cell size (m) of the occupancy grid whose free cells are checked."""
+
+SEEN_STEP = 0.1
+"""Spacing (m) of the lattice of places whose being seen free is checked (:func:`stripe_seen`)."""
 
 _CHUNK = 4096
 
@@ -72,30 +84,100 @@ def surface_distances(xy: NDArray[np.float64], s: Surfaces) -> NDArray[np.float6
     return d
 
 
-def free_behind_walls(bm: BeliefMap, world: World) -> tuple[int, int]:
-    """(free cells behind true surfaces, free cells) of the map's occupancy grid (module doc).
+def free_behind_walls(bm: BeliefMap, world: World) -> tuple[int, int, int]:
+    """(free cells behind true surfaces, of those behind opaque ones, free cells) of the map's grid (module doc).
 
     A cell is free when the ROS export writes it free (value ``0..FREE_MAX``).
     """
+    centre = _free_centres(bm)
+    if not len(centre):
+        return 0, 0, 0
+    s = world.surfaces()
+    hidden = _hidden(world, centre, s.p, s.q, s.cylinder_centers, s.cylinder_radii)
+    opaque = _hidden(
+        world,
+        centre[hidden],
+        s.p[s.lsl_opaque],
+        s.q[s.lsl_opaque],
+        s.cylinder_centers[s.cylinder_lsl_opaque],
+        s.cylinder_radii[s.cylinder_lsl_opaque],
+    )
+    return int(hidden.sum()), int(opaque.sum()), len(centre)
+
+
+def free_seen_kept(bm: BeliefMap, seen: NDArray[np.float64]) -> tuple[int, int]:
+    """(places of ``seen`` the map's grid marks free, places of ``seen``) (module doc)."""
+    if not len(seen):
+        return 0, 0
+    masses, origin = occupancy_masses(bm, GRID_RESOLUTION)
+    grid = occupancy_from_masses(masses)
+    col, row = np.floor((seen - np.asarray(origin)) / GRID_RESOLUTION).astype(np.intp).T
+    inside = (row >= 0) & (row < grid.shape[0]) & (col >= 0) & (col < grid.shape[1])
+    value = grid[row[inside], col[inside]]
+    return int(((value >= 0) & (value <= FREE_MAX)).sum()), len(seen)
+
+
+def stripe_seen(world: World, config: Config) -> NDArray[np.float64]:
+    """The places (M, 2) of a :data:`SEEN_STEP` lattice that some pose's stripe saw free (module doc).
+
+    A place is seen from a pose when the ray to it meets no opaque surface before it
+    (less a cell), and does meet one within the stripe's ``max_range`` (the ray
+    returned); places within a cell of any true surface are left out.
+    """
+    s = world.surfaces()
+    _, lsl = world.scenario.sensor_params(config.sensors.sonar, config.sensors.lsl)
+    corners = np.vstack(
+        [
+            s.vertices.reshape(-1, 2),
+            (s.cylinder_centers - s.cylinder_radii[:, None]).reshape(-1, 2),
+            (s.cylinder_centers + s.cylinder_radii[:, None]).reshape(-1, 2),
+        ]
+    )
+    if not len(corners):
+        return np.zeros((0, 2))
+    lo, hi = corners.min(axis=0) - 1.0, corners.max(axis=0) + 1.0
+    x, y = np.meshgrid(np.arange(lo[0], hi[0], SEEN_STEP), np.arange(lo[1], hi[1], SEEN_STEP))
+    xy = np.column_stack([x.ravel(), y.ravel()]) + SEEN_STEP / 2
+    xy = xy[surface_distances(xy, s) > GRID_RESOLUTION]
+    p, q = s.p[s.lsl_opaque], s.q[s.lsl_opaque]
+    centers, radii = s.cylinder_centers[s.cylinder_lsl_opaque], s.cylinder_radii[s.cylinder_lsl_opaque]
+    seen = np.zeros(len(xy), dtype=bool)
+    for px, py, _ in world.poses:
+        d = xy - (px, py)
+        dist = np.hypot(d[:, 0], d[:, 1])
+        near = np.flatnonzero(~seen & (dist <= lsl.max_range))
+        for k in range(0, len(near), _CHUNK):
+            chunk = near[k : k + _CHUNK]
+            angles = np.arctan2(d[chunk, 1], d[chunk, 0])
+            ranges, _ = cast_rays((px, py), angles, p, q, centers, radii, lsl.max_range)
+            seen[chunk] = np.isfinite(ranges) & (dist[chunk] < ranges - GRID_RESOLUTION)
+    return xy[seen]
+
+
+def _free_centres(bm: BeliefMap) -> NDArray[np.float64]:
+    """Centres (N, 2) of the free cells of the map's occupancy grid."""
     masses, origin = occupancy_masses(bm, GRID_RESOLUTION)
     grid = occupancy_from_masses(masses)
     rows, cols = np.nonzero((grid >= 0) & (grid <= FREE_MAX))
-    if not len(rows):
-        return 0, 0
-    centre = np.asarray(origin) + (np.column_stack([cols, rows]) + 0.5) * GRID_RESOLUTION
-    return int(_hidden(world, centre).sum()), len(centre)
+    return np.asarray(origin) + (np.column_stack([cols, rows]) + 0.5) * GRID_RESOLUTION
 
 
-def _hidden(world: World, xy: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """Whether every pose's sight line to each point meets a surface more than one cell before the point."""
-    s = world.surfaces()
+def _hidden(
+    world: World,
+    xy: NDArray[np.float64],
+    p: NDArray[np.float64],
+    q: NDArray[np.float64],
+    centers: NDArray[np.float64],
+    radii: NDArray[np.float64],
+) -> NDArray[np.bool_]:
+    """Whether every pose's sight line to each point meets a surface p-q or circle more than one cell before it."""
     hidden = np.ones(len(xy), dtype=bool)
     for x, y, _ in world.poses:
         for k in range(0, len(xy), _CHUNK):  # cast_rays holds (rays, surfaces) arrays
             d = xy[k : k + _CHUNK] - (x, y)
             dist = np.hypot(d[:, 0], d[:, 1])
             angles = np.arctan2(d[:, 1], d[:, 0])
-            ranges, _ = cast_rays((x, y), angles, s.p, s.q, s.cylinder_centers, s.cylinder_radii, float(dist.max()))
+            ranges, _ = cast_rays((x, y), angles, p, q, centers, radii, float(dist.max()))
             hidden[k : k + _CHUNK] &= ranges < dist - GRID_RESOLUTION
     return hidden
 

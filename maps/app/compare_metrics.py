@@ -31,10 +31,13 @@ from numpy.typing import NDArray
 from evmap.maps import new_map
 from evmap.maps.app.compare_configs import sensing_key
 from evmap.maps.app.compare_hazards import (
+    SEEN_STEP,
     SPURIOUS_FAR,
     SPURIOUS_ON_LINE,
     free_behind_walls,
+    free_seen_kept,
     spurious_unidentified,
+    stripe_seen,
     surface_distances,
 )
 from evmap.maps.app.metrics import share
@@ -53,6 +56,7 @@ __all__ = [
     "COUNTS",
     "DEFINITIONS",
     "EXTRA_COLUMNS",
+    "FREE_HAZARDS",
     "GLASS_RADIUS",
     "HAZARDS",
     "MAP_ERROR_STEP",
@@ -76,6 +80,10 @@ COUNTS = ("noise_segments", "real_segments", "lines", "unidentified")
 
 HAZARDS = ("spurious_unidentified", "free_behind_walls")
 """The figures per world, config and rule of what a planner would trip on (:mod:`~evmap.maps.app.compare_hazards`)."""
+
+FREE_HAZARDS = ("free_behind_opaque", "free_seen_kept")
+"""The free space's figures added in version 1.2 of the comparison's files: cells hidden by opaque surfaces
+alone, and the share of what the stripe saw free that the grid keeps free (written after every older column)."""
 
 COLUMNS = ("rule", *METRICS, "max_conflict", *COUNTS, "seconds_per_world", "seconds_simulate")
 """The first columns of ``summary.csv``, as older versions wrote them; ``worlds.csv`` has ``world`` first.
@@ -119,8 +127,16 @@ DEFINITIONS = {
         "free cells of the occupancy grid (5 cm) behind true surfaces: every pose's sight line to the cell meets "
         "one more than a cell before it / free cells"
     ),
+    "free_behind_opaque": (
+        "free cells of the occupancy grid behind opaque true surfaces (glass and mirrors let the stripe through): "
+        "every pose's sight line meets one more than a cell before the cell / free cells"
+    ),
+    "free_seen_kept": (
+        f"places of a {SEEN_STEP} m lattice that a pose's stripe saw free (in front of the first opaque surface of "
+        "the ray, which returned) and not within a cell of any surface, that the grid marks free / such places"
+    ),
 }
-"""What each of :data:`METRICS` and :data:`HAZARDS` measures, per world, config and rule (``summary.md`` prints it)."""
+"""What each of :data:`METRICS`, :data:`HAZARDS` and :data:`FREE_HAZARDS` measures, per world, config and rule (``summary.md`` prints it)."""
 
 TRUTHS = ("real", "noise")
 """The simulator's truths of a segment, in the order of the belief histograms' rows."""
@@ -159,11 +175,13 @@ def fuse_rules(scenario: Scenario, config: Config, rules: Sequence[str]) -> dict
     return {rule: run for (_, rule), run in fuse_configs(scenario, {config.name: config}, rules).items()}
 
 
-def world_metrics(run: Run, glass: NDArray[np.intp] | None = None) -> dict[str, float | int | None]:
+def world_metrics(
+    run: Run, glass: NDArray[np.intp] | None = None, seen: NDArray[np.float64] | None = None
+) -> dict[str, float | int | None]:
     """The figures of one rule on one world (module doc); ``None`` where a ratio has no denominator.
 
-    ``glass``: the indices of :func:`visible_glass` in the world's surfaces, if
-    already computed (they do not depend on the rule).
+    ``glass``: the indices of :func:`visible_glass` in the world's surfaces, and ``seen``: the places of
+    :func:`~evmap.maps.app.compare_hazards.stripe_seen`, if already computed (they do not depend on the rule).
     """
     store = run.map.segments
     noise = store.truth == "noise"
@@ -178,7 +196,10 @@ def world_metrics(run: Run, glass: NDArray[np.intp] | None = None) -> dict[str, 
         d = point_segment_distances(unidentified[:, None], surfaces.p[glass], surfaces.q[glass])  # (U, G)
         explained = float((d <= GLASS_RADIUS).any(axis=0).mean()) if len(unidentified) else 0.0
     spurious, objects = spurious_unidentified(run.map, run.world)
-    behind, free = free_behind_walls(run.map, run.world)
+    if seen is None:
+        seen = stripe_seen(run.world, run.config)
+    behind, behind_opaque, free = free_behind_walls(run.map, run.world)
+    kept, seen_free = free_seen_kept(run.map, seen)
     return {
         "noise_recall": share(store.eliminated & noise, noise),
         "real_loss": share(store.eliminated & real, real),
@@ -196,6 +217,8 @@ def world_metrics(run: Run, glass: NDArray[np.intp] | None = None) -> dict[str, 
         "free_behind_walls": behind / free if free else None,
         "noise_eliminated": int((store.eliminated & noise).sum()),
         "real_eliminated": int((store.eliminated & real).sum()),
+        "free_behind_opaque": behind_opaque / free if free else None,
+        "free_seen_kept": kept / seen_free if seen_free else None,
     }
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 from matplotlib.figure import Figure
 from matplotlib.transforms import offset_copy
 
-from evmap.maps.app.compare_metrics import BELIEF_BINS, HAZARDS, METRICS
+from evmap.maps.app.compare_metrics import BELIEF_BINS, FREE_HAZARDS, HAZARDS, METRICS
 from evmap.maps.app.compare_tables import CONFIDENCE, Comparison
 
 __all__ = ["MARKERS", "PLOT_FILES", "SHIFT_POINTS", "write_plots"]
@@ -75,7 +75,7 @@ def plot_recall_loss(comparison: Comparison, path: Path) -> None:
 def plot_intervals(comparison: Comparison, path: Path) -> None:
     """One panel per metric: each variant's mean and interval on its own row."""
     labels = [comparison.label(v) for v in comparison.variants]
-    metrics = (*METRICS, *HAZARDS)
+    metrics = (*METRICS, *HAZARDS, *FREE_HAZARDS)
     fig = Figure(figsize=(3.0 * len(metrics), 0.45 * len(labels) + 1.6))
     axes = fig.subplots(1, len(metrics), sharey=True)
     for ax, metric in zip(axes, metrics, strict=True):

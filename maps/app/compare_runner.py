@@ -34,7 +34,7 @@ from typing import Any
 from evidential import RULES
 from evmap.maps.app.compare_args import SYNCHRONOUS_BELOW
 from evmap.maps.app.compare_configs import config_names, resolve_config
-from evmap.maps.app.compare_hazards import sunlight_seen_twice
+from evmap.maps.app.compare_hazards import stripe_seen, sunlight_seen_twice
 from evmap.maps.app.compare_metrics import WorldResult, belief_histograms, fuse_configs, visible_glass, world_metrics
 from evmap.maps.app.compare_tables import Comparison, Tally
 from evmap.sources.plugins import load_plugins, refusal
@@ -107,9 +107,10 @@ def compare_world(
     runs = fuse_configs(scenario, {c: resolve_config(c) for c in configs}, rules)
     first = next(iter(runs.values()))
     glass = visible_glass(first.world, first.config)
+    seen = stripe_seen(first.world, first.config)
     twice = int(sunlight_seen_twice(first.world, first.config))
     rows = tuple(
-        {"world": name, "config": c, "rule": rule, **world_metrics(run, glass), "sunlight_seen_twice": twice}
+        {"world": name, "config": c, "rule": rule, **world_metrics(run, glass, seen), "sunlight_seen_twice": twice}
         for (c, rule), run in runs.items()
     )
     beliefs = {variant: belief_histograms(run) for variant, run in runs.items()}

@@ -4,7 +4,7 @@ The summary is built world by world (:class:`Tally`), in world order, so its
 memory does not grow with the number of worlds and its numbers do not depend
 on the parallelism: per config, rule and column, the mean over the worlds where
 the value is defined (empty ratios excluded) and, for each of the :data:`METRICS`
-and :data:`HAZARDS`, a 95% Student t interval of that mean (``<metric>_lo``,
+and :data:`HAZARDS` (and :data:`FREE_HAZARDS`), a 95% Student t interval of that mean (``<metric>_lo``,
 ``<metric>_hi``); and the :data:`POOLED` ratios, over the segments of all worlds.
 """
 
@@ -26,6 +26,7 @@ from evmap.maps.app.compare_metrics import (
     COLUMNS,
     DEFINITIONS,
     EXTRA_COLUMNS,
+    FREE_HAZARDS,
     HAZARDS,
     METRICS,
     WorldResult,
@@ -49,8 +50,10 @@ __all__ = [
 CONFIDENCE = 0.95
 """Coverage of the interval of each metric's mean over the worlds (Student t)."""
 
-INTERVAL_COLUMNS = tuple(f"{m}_{end}" for m in (*METRICS, *HAZARDS) for end in ("lo", "hi"))
+INTERVAL_COLUMNS = tuple(f"{m}_{end}" for m in (*METRICS, *HAZARDS, *FREE_HAZARDS) for end in ("lo", "hi"))
 """The interval columns of ``summary.csv``."""
+
+_OLD_INTERVALS = 2 * (len(METRICS) + len(HAZARDS))
 
 POOLED = {
     "noise_recall_pooled": ("noise_eliminated", "noise_segments", False),
@@ -65,18 +68,20 @@ SUMMARY_COLUMNS = (
     "worlds",
     *INTERVAL_COLUMNS[: 2 * len(METRICS)],
     *EXTRA_COLUMNS,
-    *INTERVAL_COLUMNS[2 * len(METRICS) :],
+    *INTERVAL_COLUMNS[2 * len(METRICS) : _OLD_INTERVALS],
     *POOLED,
+    *FREE_HAZARDS,
+    *INTERVAL_COLUMNS[_OLD_INTERVALS:],
 )
 """The columns of ``summary.csv``: those other tools read first, as older versions wrote them; new ones appended."""
 
-WORLD_COLUMNS = ("world", *COLUMNS, *EXTRA_COLUMNS)
+WORLD_COLUMNS = ("world", *COLUMNS, *EXTRA_COLUMNS, *FREE_HAZARDS)
 """The columns of ``worlds.csv``: older ones first."""
 
 PLOT_WORLDS = 2000
 """The per-world points of the first this many worlds are kept for the plots (memory stays bounded)."""
 
-_VALUES = (*COLUMNS[1:], *EXTRA_COLUMNS[1:])
+_VALUES = (*COLUMNS[1:], *EXTRA_COLUMNS[1:], *FREE_HAZARDS)
 
 Variant = tuple[str, str]
 """(config, rule): one map per world."""
@@ -191,7 +196,7 @@ class Tally:
             row: dict[str, Any] = {"config": v[0], "rule": v[1]}
             row.update({c: float(mean[k]) if count[k] else None for k, c in enumerate(_VALUES)})
             row["worlds"] = self.rows_per_variant[v]
-            for metric in (*METRICS, *HAZARDS):
+            for metric in (*METRICS, *HAZARDS, *FREE_HAZARDS):
                 k = _VALUES.index(metric)
                 lo, hi = _interval(count[k], mean[k], m2[k])
                 row[f"{metric}_lo"], row[f"{metric}_hi"] = lo, hi
@@ -284,7 +289,7 @@ def write_summary(comparison: Comparison, directory: Path) -> None:
 
 def summary_markdown(comparison: Comparison) -> str:
     """The summary table in Markdown: what was run, what each metric is, means with their intervals."""
-    shown = [*METRICS, *HAZARDS, *POOLED, "lines", "unidentified", "seconds_per_world"]
+    shown = [*METRICS, *HAZARDS, *FREE_HAZARDS, *POOLED, "lines", "unidentified", "seconds_per_world"]
     configs = ", ".join(f"`{c}`" for c in comparison.configs)
     out = [
         f"# Comparison: {comparison.worlds} worlds, seed {comparison.seed}, configs {configs}",
@@ -296,7 +301,7 @@ def summary_markdown(comparison: Comparison) -> str:
             "segments of all worlds."
         ),
         "",
-        *[f"- `{m}`: {DEFINITIONS[m]}." for m in (*METRICS, *HAZARDS)],
+        *[f"- `{m}`: {DEFINITIONS[m]}." for m in (*METRICS, *HAZARDS, *FREE_HAZARDS)],
         "- `noise_recall_pooled`, `real_loss_pooled`: the same ratios over the segments of all worlds together.",
         (
             "- `noise_recall_seen_twice`: pooled noise recall on the worlds where every sunlight region a pose "
