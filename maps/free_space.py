@@ -20,7 +20,9 @@ and wider gaps, leave the sonar's free space as it is.
 
 A sensor sees nothing behind a surface, so each pose's free space ends at the
 first believed line (``Bel(real) >= min_belief``) that it meets: the line's
-shadow from the pose is cut away. The map's free space is the union over poses.
+shadow from the pose is cut away; and at every believed unidentified object, a
+face ``object_width`` across toward each pose that heard it (glass heard at
+normal incidence: the stripe goes through the pane, the sonar does not). The map's free space is the union over poses.
 A map that remembers no pose (hand-made, or from an older file) has its stored
 open space as it is.
 
@@ -58,6 +60,7 @@ class FreeSpaceParams:
     max_gap: float = np.radians(2.0)  # neighbouring rays farther apart than this bound no free space
     min_belief: float = 0.5  # lines believed at least this much end the free space
     bridge: float = 2.5  # a gap in the stripe between points at most this far apart (m) is bridged
+    object_width: float = 0.6  # a believed unidentified object ends the free space over this width (m)
 
 
 def ray_fan(s: Sensed, params: FreeSpaceParams) -> shapely.Geometry:
@@ -192,6 +195,8 @@ def free_space(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shapely.
     believed = lines(bm, params.min_belief)
     p = np.array([ln.p for ln in believed], dtype=float).reshape(-1, 2)
     q = np.array([ln.q for ln in believed], dtype=float).reshape(-1, 2)
+    op, oq = _object_faces(bm, {s.pose_index: s.origin for s in poses}, params)
+    p, q = np.concatenate([p, op]), np.concatenate([q, oq])
     pieces = []
     for s in poses:
         seen = [ray_fan(s, params)]
@@ -208,3 +213,23 @@ def free_space(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shapely.
     union = shapely.union_all(pieces)
     polygons = [g for g in shapely.get_parts(union) if isinstance(g, shapely.Polygon) and not g.is_empty]
     return shapely.union_all(polygons) if polygons else shapely.Polygon()
+
+
+def _object_faces(
+    bm: BeliefMap, origins: dict[int, NDArray[np.float64]], params: FreeSpaceParams
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A face of every believed unidentified object toward each pose that heard it: ``object_width`` across."""
+    p, q = [], []
+    for u in bm.unidentified(params.min_belief):
+        xy = np.asarray(u.xy, dtype=float)
+        for pose in {r["pose"] for r in bm.graph.nodes[u.id].get("history", ()) if "pose" in r}:
+            if pose not in origins:
+                continue
+            d = xy - origins[pose]
+            n = np.hypot(*d)
+            if n <= 0:
+                continue
+            side = np.array([-d[1], d[0]]) / n * params.object_width / 2
+            p.append(xy - side)
+            q.append(xy + side)
+    return np.array(p, dtype=float).reshape(-1, 2), np.array(q, dtype=float).reshape(-1, 2)

@@ -64,3 +64,20 @@ def test_sonar_sectors_end_at_the_stripe_and_what_the_stripe_saw_stays_free():
     kept, seen = free_seen_kept(run.map, stripe_seen(run.world, run.config))
     assert free > 5000 and behind_opaque <= 0.001 * free < behind  # the rest the stripe saw through glass
     assert kept >= 0.9 * seen
+
+
+def test_a_believed_unidentified_object_ends_the_free_space_behind_it():
+    from evidential import MassFunction
+
+    config = load_config(configs.path("default.yaml"))
+    bm = new_map(config)
+    bm.update(observe(World(load_scenario(configs.path("scenarios/patrol.yaml"))), 0, config))
+    s = sensed(bm)[0]
+    ok = np.flatnonzero(np.isfinite(s.range) & (s.range > 1.5))
+    u = np.column_stack([np.cos(s.bearing[ok]), np.sin(s.bearing[ok])])
+    behind = s.origin + 0.9 * s.range[ok, None] * u
+    before = shapely.contains_xy(free_space(bm), behind[:, 0], behind[:, 1])
+    k = np.flatnonzero(before)[len(np.flatnonzero(before)) // 2]  # a place the ray crossed: free
+    pane = MassFunction(bm.frame, {"real": 0.6, "real|noise": 0.4})
+    bm.add_point("pane", s.origin + 0.5 * s.range[ok[k]] * u[k], "unidentified", pane, history=[{"pose": 0}])
+    assert not free_space(bm).contains(shapely.Point(behind[k]))
