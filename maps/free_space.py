@@ -33,6 +33,7 @@ grid of the run.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -115,14 +116,19 @@ def _rays_on(s: Sensed, p: NDArray[np.float64], q: NDArray[np.float64], margin: 
     return on
 
 
-def contour_bound(s: Sensed, params: FreeSpaceParams, reach: float, points: bool = True) -> shapely.Geometry | None:
+def contour_bound(
+    s: Sensed,
+    params: FreeSpaceParams,
+    reach: float,
+    bridge_ok: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.bool_]] | None = None,
+) -> shapely.Geometry | None:
     """What the contour of one pose leaves possible to be free: the star polygon through its stripe points.
 
-    Each returned ray bounds it at its point (less ``margin``; at ``reach`` when not ``points``); a run of rays
-    that returned
-    nothing, between two returned rays whose points are at most ``bridge`` apart, at the chord
-    between those points; other rays, and bearings with no ray (more than ``max_gap`` from the
-    nearest), at ``reach``. None when the pose has no returned ray.
+    Each returned ray bounds it at its point (less ``margin``); a run of rays that returned
+    nothing, between two returned rays whose points ``a``, ``b`` are at most ``bridge`` apart
+    (and pass ``bridge_ok(a, b)``, (K, 2) each, when given), at the chord between those points;
+    other rays, and bearings with no ray (more than ``max_gap`` from the nearest), at ``reach``.
+    None when the pose has no returned ray.
 
     >>> bearing = np.radians(np.arange(-180.0, 180.0, 1.0))
     >>> rng = np.where(np.abs(bearing) < np.radians(60), 1 / np.cos(bearing), np.nan)  # a wall x = 1
@@ -132,13 +138,17 @@ def contour_bound(s: Sensed, params: FreeSpaceParams, reach: float, points: bool
     [True, False]
     >>> bool(bound.contains(shapely.Point(-5, 0)))  # nothing returned behind: not bounded
     True
+    >>> refuse = contour_bound(Sensed(0, np.zeros(2), bearing, rng, None), FreeSpaceParams(), 10.0,
+    ...                        lambda a, b: np.zeros(len(a), dtype=bool))
+    >>> bool(refuse.contains(shapely.Point(1.1, 0)))  # a gap bridge_ok refuses stays open
+    True
     """
     ok = np.isfinite(s.range) & (s.range > 0)
     if not ok.any():
         return None
     theta = s.bearing
     u = np.column_stack([np.cos(theta), np.sin(theta)])
-    radius = np.where(ok & points, s.range, reach)
+    radius = np.where(ok, s.range, reach)
     # runs of unreturned rays between returned ones (cyclic), bridged when the points are close
     idx = np.flatnonzero(ok)
     nxt = np.roll(idx, -1)
@@ -147,6 +157,8 @@ def contour_bound(s: Sensed, params: FreeSpaceParams, reach: float, points: bool
     chord = pts[np.roll(np.arange(len(idx)), -1)] - pts
     missing = (nxt - idx - 1) % len(theta)  # rays between the two that returned nothing
     bridged = (missing > 0) & (np.hypot(*chord.T) <= params.bridge) & (span < np.pi) & (span > 0)
+    if bridge_ok is not None and bridged.any():
+        bridged[bridged] = bridge_ok(pts[bridged], pts[bridged] + chord[bridged])
     for k in np.flatnonzero(bridged):
         run = np.arange(idx[k] + 1, idx[k] + 1 + missing[k]) % len(theta)
         a, e = pts[k] - s.origin, chord[k]

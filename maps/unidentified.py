@@ -21,6 +21,7 @@ believed line comes to explain as later poses extend the lines is removed
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -146,9 +147,10 @@ def _unexplained(
         free &= point_segment_distances(arc[..., None, :], p, q).min(axis=-1) > params.explained_distance
     sensed = pose_sensed(bm, pose_index) if params.behind_contour else None
     if sensed is not None:
-        shape = FreeSpaceParams(bridge=0.0)  # a gap in the stripe may be a corner, not a pane: no chord
+        shape = FreeSpaceParams()
         surfaces = surface_rays(bm, sensed, shape, believed=True)
-        bound = contour_bound(surfaces, shape, float(actual.range[keep].max()) + 1.0)
+        on_wall = _in_line(s.p[believed], s.q[believed], shape.margin)
+        bound = contour_bound(surfaces, shape, float(actual.range[keep].max()) + 1.0, on_wall)
         if bound is not None:  # the arc point pulled back by the margins must lie inside the stripe's bound
             back = actual.range[keep, None, None] - params.occlusion_margin - shape.margin
             inner = pose[:2] + np.maximum(back, 0.0) * _unit(angles)
@@ -156,6 +158,34 @@ def _unexplained(
     best = np.argmin(np.where(free, np.abs(steps), np.inf), axis=1)
     ok = free.any(axis=1)
     return keep[ok], arc[np.flatnonzero(ok), best[ok]]
+
+
+WALL_ANGLE = np.radians(10.0)
+"""A gap in the stripe is a pane in a wall when its chord is this parallel to the believed lines at both ends."""
+
+
+def _in_line(
+    p: NDArray[np.float64], q: NDArray[np.float64], margin: float
+) -> Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.bool_]]:
+    """Which chords a-b cross a gap in a wall: each end on a line p-q (within ``margin``) that the chord continues.
+
+    A gap between two walls meeting at a corner is no pane: its chord would cut the corner off.
+    """
+
+    def ok(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.bool_]:
+        if not len(p):
+            return np.zeros(len(a), dtype=bool)
+        chord = (b - a) / np.maximum(np.hypot(*(b - a).T), 1e-12)[:, None]
+        d = (q - p) / np.maximum(np.hypot(*(q - p).T), 1e-12)[:, None]
+        out = np.ones(len(a), dtype=bool)
+        for end in (a, b):
+            dist = point_segment_distances(end[:, None], p[None], q[None])  # (K, L)
+            near = dist.argmin(axis=1)
+            sin = np.abs(chord[:, 0] * d[near, 1] - chord[:, 1] * d[near, 0])
+            out &= (dist[np.arange(len(end)), near] <= margin) & (sin <= np.sin(WALL_ANGLE))
+        return out
+
+    return ok
 
 
 def _unit(angle: NDArray[np.float64]) -> NDArray[np.float64]:
