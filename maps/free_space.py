@@ -172,8 +172,11 @@ def contour_bound(
     t_all = np.concatenate([theta, theta[gap] + 1e-6, np.append(theta, theta[0] + 2 * np.pi)[gap + 1] - 1e-6])
     r_all = np.concatenate([radius, np.full(2 * len(gap), reach)])
     order = np.argsort(t_all, kind="stable")
-    ring = s.origin + r_all[order, None] * np.column_stack([np.cos(t_all[order]), np.sin(t_all[order])])
-    return shapely.make_valid(shapely.Polygon(ring))
+    t_all, r_all = t_all[order], r_all[order]
+    angle, first = np.unique(t_all, return_index=True)  # one vertex per bearing, the nearest: a simple polygon
+    r_all = np.minimum.reduceat(r_all, first)
+    bound = shapely.Polygon(s.origin + r_all[:, None] * np.column_stack([np.cos(angle), np.sin(angle)]))
+    return bound if bound.is_valid else shapely.make_valid(bound)
 
 
 def shadows(

@@ -26,6 +26,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed
@@ -57,13 +58,21 @@ def _readings(
     scan: SonarScan, bearing: NDArray[np.float64], r: NDArray[np.float64], w: NDArray[np.float64], tolerance: float
 ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """Per target: an actual reading within ``tolerance`` of r in the window, and every reading beyond it."""
+    near, beyond = np.zeros(len(r), dtype=bool), np.zeros(len(r), dtype=bool)
+    valid = np.flatnonzero(~np.isnan(w))  # targets the sonar could hear at all
+    if not len(valid):
+        return near, beyond
+    bearing, r, w = bearing[valid], r[valid], w[valid]
     diff = np.abs((scan.angles[None, :] - bearing[:, None] + np.pi) % (2 * np.pi) - np.pi)
     window = diff <= np.maximum(w, scan.step / 2)[:, None]
     ranges = scan.ranges[None, :]
-    near = (window & (np.abs(ranges - r[:, None]) <= tolerance)).any(axis=1)
-    beyond = window.any(axis=1) & ~(window & (ranges <= r[:, None] + tolerance)).any(axis=1)
-    valid = ~np.isnan(w)
-    return near & valid, beyond & valid & (r + tolerance < scan.params.max_range)
+    near[valid] = (window & (np.abs(ranges - r[:, None]) <= tolerance)).any(axis=1)
+    beyond[valid] = (
+        window.any(axis=1)
+        & ~(window & (ranges <= r[:, None] + tolerance)).any(axis=1)
+        & (r + tolerance < scan.params.max_range)
+    )
+    return near, beyond
 
 
 def free_ends(
@@ -88,20 +97,18 @@ def free_ends(
     out = np.ones((len(p), 2), dtype=bool)
     if not len(op) or not len(p):
         return out
-    d = oq - op
-    length2 = np.maximum((d**2).sum(axis=1), 1e-300)
+    tree = shapely.STRtree(shapely.linestrings(np.stack([op, oq], axis=1)))
     e = q - p
-    cos = np.abs(e @ d.T) / np.maximum(np.hypot(*e.T)[:, None] * np.sqrt(length2)[None], 1e-300)
-    parallel = cos >= np.cos(np.radians(angle_deg))
-    same = (np.abs(op[None] - p[:, None]).sum(axis=2) < 1e-12) & (np.abs(oq[None] - q[:, None]).sum(axis=2) < 1e-12)
     for k, point in enumerate((p, q)):
-        w = point[:, None, :] - op[None]
-        t = np.clip((w * d[None]).sum(axis=2) / length2, 0, 1)
-        near = np.hypot(*(w - t[..., None] * d[None]).transpose(2, 0, 1)) <= clearance
-        corner = np.minimum(
-            np.hypot(*w.transpose(2, 0, 1)), np.hypot(*(point[:, None, :] - oq[None]).transpose(2, 0, 1))
-        )
-        out[:, k] = ~(((near & parallel) | (corner <= clearance)) & ~same).any(axis=1)
+        # pairs (end, other segment) within the clearance: the only ones that can hold the end
+        i, j = tree.query(shapely.points(point), predicate="dwithin", distance=clearance)
+        same = (np.abs(op[j] - p[i]).sum(axis=1) < 1e-12) & (np.abs(oq[j] - q[i]).sum(axis=1) < 1e-12)
+        i, j = i[~same], j[~same]
+        d = oq[j] - op[j]
+        cos = np.abs((e[i] * d).sum(axis=1)) / np.maximum(np.hypot(*e[i].T) * np.hypot(*d.T), 1e-300)
+        corner = np.minimum(np.hypot(*(point[i] - op[j]).T), np.hypot(*(point[i] - oq[j]).T)) <= clearance
+        held = (cos >= np.cos(np.radians(angle_deg))) | corner
+        out[np.unique(i[held]), k] = False
     return out
 
 

@@ -218,3 +218,42 @@ def test_an_unidentified_object_a_believed_line_comes_to_explain_is_removed() ->
         bm.add_point("U3", (6, 0.1), "unidentified", sure)  # past its end
         assert drop_explained(bm, bm.config) == dropped
         assert sorted(u.id for u in bm.unidentified()) == sorted({"U1", "U2", "U3"} - set(dropped))
+
+
+def test_free_ends_are_those_of_the_pairwise_definition() -> None:
+    """free_ends looks only at the segments within the clearance of each end (an STRtree): the same ends as
+    testing every pair, on random segments with continuations and corners planted."""
+    from evmap.maps.sonar_forward import free_ends
+
+    def every_pair(p, q, op, oq, clearance, angle_deg=15.0):
+        d, e = oq - op, q - p
+        length2 = np.maximum((d**2).sum(axis=1), 1e-300)
+        cos = np.abs(e @ d.T) / np.maximum(np.hypot(*e.T)[:, None] * np.sqrt(length2)[None], 1e-300)
+        same = (np.abs(op[None] - p[:, None]).sum(axis=2) < 1e-12) & (np.abs(oq[None] - q[:, None]).sum(axis=2) < 1e-12)
+        out = np.ones((len(p), 2), dtype=bool)
+        for k, point in enumerate((p, q)):
+            w = point[:, None, :] - op[None]
+            t = np.clip((w * d[None]).sum(axis=2) / length2, 0, 1)
+            near = np.hypot(*(w - t[..., None] * d[None]).transpose(2, 0, 1)) <= clearance
+            corner = np.minimum(
+                np.hypot(*w.transpose(2, 0, 1)), np.hypot(*(point[:, None] - oq[None]).transpose(2, 0, 1))
+            )
+            parallel = cos >= np.cos(np.radians(angle_deg))
+            out[:, k] = ~(((near & parallel) | (corner <= clearance)) & ~same).any(axis=1)
+        return out
+
+    rng = np.random.default_rng(0)
+    held = 0
+    for _ in range(200):
+        n, m = int(rng.integers(1, 30)), int(rng.integers(1, 30))
+        p = rng.uniform(0, 3, (n, 2))
+        q = p + rng.normal(0, 0.5, (n, 2))
+        a = rng.uniform(0, 3, (m, 2))
+        planted_p = np.concatenate([q[:1] + 0.01 * rng.normal(size=(1, 2)), p[:1] - 0.03])  # a continuation, a corner
+        planted_q = np.concatenate([2 * q[:1] - p[:1], p[:1] - 0.5 * (q[:1] - p[:1])])
+        op = np.concatenate([p[: m // 2], a, planted_p])
+        oq = np.concatenate([q[: m // 2], a + rng.normal(0, 0.5, (m, 2)), planted_q])
+        expected = every_pair(p, q, op, oq, 0.05)
+        assert (free_ends(p, q, op, oq, 0.05) == expected).all()
+        held += int((~expected).sum())
+    assert held > 500
