@@ -75,14 +75,18 @@ def ray_fan(s: Sensed, params: FreeSpaceParams) -> shapely.Geometry:
     """
     r = s.range - params.margin
     ok = np.isfinite(r) & (r > 0)
-    pair = np.flatnonzero(ok[:-1] & ok[1:] & (np.diff(s.bearing) <= params.max_gap))
+    step = np.diff(s.bearing)
+    pair = np.flatnonzero(ok[:-1] & ok[1:] & (step > 0) & (step <= params.max_gap))
     if not len(pair):
         return shapely.Polygon()
     near = np.minimum(r[pair], r[pair + 1])  # across a jump in range, only the nearer is known free
     u = np.column_stack([np.cos(s.bearing), np.sin(s.bearing)])
-    o = np.broadcast_to(s.origin, (len(pair), 2))
-    rings = np.stack([o, o + near[:, None] * u[pair], o + near[:, None] * u[pair + 1], o], axis=1)
-    return shapely.union_all(shapely.polygons(rings))
+    # each run of adjacent sectors is one star polygon, a staircase of arcs' chords (a union of
+    # thousands of triangles whose edges do not meet would cost a second per pose)
+    corners = s.origin + np.stack([near[:, None] * u[pair], near[:, None] * u[pair + 1]], axis=1)  # (P, 2, 2)
+    breaks = np.flatnonzero(s.bearing[pair[1:]] != s.bearing[pair[:-1] + 1]) + 1
+    runs = [c.reshape(-1, 2) for c in np.split(corners, breaks)]
+    return shapely.union_all([shapely.Polygon(np.vstack([s.origin, run])) for run in runs])
 
 
 def surface_rays(bm: BeliefMap, s: Sensed, params: FreeSpaceParams, believed: bool = False) -> Sensed:

@@ -21,6 +21,8 @@ Nothing here is read by the pipeline; the comparison calls it after the maps are
 
 from __future__ import annotations
 
+from weakref import WeakKeyDictionary
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -109,8 +111,7 @@ def free_seen_kept(bm: BeliefMap, seen: NDArray[np.float64]) -> tuple[int, int]:
     """(places of ``seen`` the map's grid marks free, places of ``seen``) (module doc)."""
     if not len(seen):
         return 0, 0
-    masses, origin = occupancy_masses(bm, GRID_RESOLUTION)
-    grid = occupancy_from_masses(masses)
+    grid, origin = _grid(bm)
     col, row = np.floor((seen - np.asarray(origin)) / GRID_RESOLUTION).astype(np.intp).T
     inside = (row >= 0) & (row < grid.shape[0]) & (col >= 0) & (col < grid.shape[1])
     value = grid[row[inside], col[inside]]
@@ -154,10 +155,21 @@ def stripe_seen(world: World, config: Config) -> NDArray[np.float64]:
     return xy[seen]
 
 
+_GRIDS: WeakKeyDictionary[BeliefMap, tuple[int, NDArray[np.int8], tuple[float, float]]] = WeakKeyDictionary()
+
+
+def _grid(bm: BeliefMap) -> tuple[NDArray[np.int8], tuple[float, float]]:
+    """The map's occupancy grid at :data:`GRID_RESOLUTION` and its origin, made once per version of the map."""
+    kept = _GRIDS.get(bm)
+    if kept is None or kept[0] != bm.version:
+        masses, origin = occupancy_masses(bm, GRID_RESOLUTION)
+        kept = _GRIDS[bm] = (bm.version, occupancy_from_masses(masses), origin)
+    return kept[1], kept[2]
+
+
 def _free_centres(bm: BeliefMap) -> NDArray[np.float64]:
     """Centres (N, 2) of the free cells of the map's occupancy grid."""
-    masses, origin = occupancy_masses(bm, GRID_RESOLUTION)
-    grid = occupancy_from_masses(masses)
+    grid, origin = _grid(bm)
     rows, cols = np.nonzero((grid >= 0) & (grid <= FREE_MAX))
     return np.asarray(origin) + (np.column_stack([cols, rows]) + 0.5) * GRID_RESOLUTION
 
