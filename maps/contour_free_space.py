@@ -44,7 +44,7 @@ class RayParams:
     tolerance: float = 0.02  # a point this close to the segment (plus 3 noise stds) ends on it
     range_noise: float = 0.003  # the stripe's range-noise std per metre of range
     max_range: float = 8.0  # the contour sensor's range: beyond it, no return is no evidence
-    end_margin: float = 0.03  # rays this close to an end of the segment are not counted
+    end_margin: float = 0.03  # rays this close to an end of the segment (a quarter of it at most) are not counted
     min_rays: int = 3
     pass_share: float = 0.25
     seen_share: float = 0.7
@@ -87,7 +87,8 @@ def _crossings(
         t = (a[seg, 0] * e[:, 1] - a[seg, 1] * e[:, 0]) / cross  # range of the crossing along the ray
         along = (a[seg, 0] * u[:, 1] - a[seg, 1] * u[:, 0]) / cross * length  # metres along the segment
     sin = np.abs(cross) / length
-    inside = (np.abs(cross) > 1e-12) & (t > 0) & (along >= params.end_margin) & (along <= length - params.end_margin)
+    margin = np.minimum(params.end_margin, length / 4)  # a short segment keeps the middle half of it
+    inside = (np.abs(cross) > 1e-12) & (t > 0) & (along >= margin) & (along <= length - margin)
     across = (r - t) * sin  # the point's distance beyond the segment, across it
     tol = params.tolerance + 3 * params.range_noise * t * sin
     kind = np.select([np.isnan(r), across > tol, across < -tol], [3, 1, 2], 0)
