@@ -13,6 +13,8 @@ defines each):
 - ``loss``: eliminated real segments / real segments;
 - ``spurious``: the mean share of spurious unidentified objects per world;
 - ``behind``: the mean share of the free grid cells that lie behind true surfaces;
+  ``opaque``: of those hidden by opaque surfaces alone; ``kept``: the mean share of the
+  places the stripe saw free that the grid keeps free;
 - ``glass``: the mean share of glass walls heard at normal incidence that are explained;
 - ``s/pose``: the median over worlds of the fusion seconds per pose.
 
@@ -31,6 +33,9 @@ from evmap.sources.sim.worldgen import WorldGenParams
 
 DETECTORS = {"threshold": 0.0, "column_max": 1.0}
 """Detector -> the generator's ``column_max_share``."""
+
+COLUMNS = ("spurious_unidentified", "free_behind_walls", "free_behind_opaque", "free_seen_kept", "glass_explained")
+"""The per-world figures averaged over the worlds."""
 
 
 def main() -> None:
@@ -60,18 +65,19 @@ def main() -> None:
                     s["noise2"] += row["noise_segments"]
                     s["noise2_out"] += row["noise_eliminated"]
                     s["twice"] += 1
-                for column in ("spurious_unidentified", "free_behind_walls", "glass_explained"):
+                for column in COLUMNS:
                     if row[column] is not None:
                         means[key][column].append(row[column])
                 means[key]["s/pose"].append(row["seconds_per_world"] / poses[row["world"]])
     print(f"seeds {args.seeds}, {args.worlds} worlds each per detector, Dempster's rule, pooled over segments")
-    print("config                  detector    recall recall2   loss  spurious  behind   glass  s/pose")
+    print("config                  detector    recall recall2   loss  spurious  behind  opaque    kept   glass  s/pose")
     for (name, detector), s in sums.items():
         m = {k: statistics.fmean(v) if v else float("nan") for k, v in means[name, detector].items()}
         print(
             f"{name:23s} {detector:10s} {s['noise_out'] / max(s['noise'], 1):6.3f} "
             f"{s['noise2_out'] / max(s['noise2'], 1):6.3f} {s['real_out'] / max(s['real'], 1):7.4f} "
-            f"{m['spurious_unidentified']:8.3f} {m['free_behind_walls']:7.3f} {m['glass_explained']:7.3f} "
+            f"{m['spurious_unidentified']:8.3f} {m['free_behind_walls']:7.3f} {m['free_behind_opaque']:7.4f} "
+            f"{m['free_seen_kept']:7.3f} {m['glass_explained']:7.3f} "
             f"{statistics.median(means[name, detector]['s/pose']):6.3f}   ({int(s['twice'])} worlds seen twice)"
         )
 
