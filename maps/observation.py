@@ -24,6 +24,7 @@ from evmap.sources.laser import LaserParams, Rays, laser_segments
 from evmap.sources.logs.scan import LogRecord, RangeReadings
 from evmap.sources.params import SonarParams
 from evmap.sources.readings import LslSegments, SonarScan
+from evmap.sources.sensor_kinds import features_from_arrays
 from evmap.sources.sim.lsl import observe_stripe
 from evmap.sources.sim.sensor_models import simulate_features
 from evmap.sources.sim.sonar import simulate_scan
@@ -117,12 +118,15 @@ def observation_from_log(
     pose_index: int,
     laser: LaserParams | None = None,
     sonar: RangeReadings | None = None,
+    readings: Mapping[str, Mapping[str, ArrayLike]] | None = None,
 ) -> Observation:
     """One log record as an observation: the laser's segments and rays as the contour.
 
     The sonar scan is made from ``sonar`` (the record's readings, if they are new
     since the last scan used; None for none: the sonar stages are skipped), with
-    the config's sonar model (:func:`sonar_from_readings`).
+    the config's sonar model (:func:`sonar_from_readings`). ``readings`` are those
+    of the config's declared sensors at this scan (``{sensor: {array: values}}``,
+    :func:`~evmap.sources.sensor_kinds.features_from_arrays`), which bring their features.
 
     >>> from evmap.sources.config import load_config
     >>> from evmap.sources.logs.scan import LaserScan
@@ -135,7 +139,9 @@ def observation_from_log(
     segs = laser_segments(record.scan, laser or LaserParams(), pose_index)
     pose = np.asarray(record.robot_pose, dtype=float)
     scan = None if sonar is None else sonar_from_readings(sonar, pose, config.sensors.sonar)
-    return Observation(pose_index, scan, segs.segments, rays=rays_from(segs.rays, pose), robot_pose=pose)
+    p, q = segs.segments.p, segs.segments.q
+    features = {} if readings is None else features_from_arrays(config.extra_sensors, readings, p, q)
+    return Observation(pose_index, scan, segs.segments, features, rays=rays_from(segs.rays, pose), robot_pose=pose)
 
 
 def rays_from(rays: Rays, pose: ArrayLike) -> NDArray[np.float64]:

@@ -115,3 +115,41 @@ def test_a_bad_log_is_an_error_naming_file_and_line_and_nothing_is_written(tmp_p
     err = capsys.readouterr().err
     assert f"evmap: error: {bad}:1: " in err
     assert not out.exists() and list(tmp_path.iterdir()) == [bad]
+
+
+def test_a_yaml_sensor_reads_its_readings_from_a_log_s_directory(tmp_path, capsys):
+    """configs/examples/radar.yaml on a log: DIR/scan-N.npz per scan used gives the radar's readings; its
+    feature reaches the segments; a config with a declared sensor and no readings, a missing file or a wrong
+    array is refused naming what and where, and nothing is written."""
+    cfg = load_config(configs.path("examples/radar.yaml"))
+    readings = tmp_path / "readings"
+    readings.mkdir()
+    detected = 0
+    for k, record in zip(range(3), open_log(INTEL), strict=False):
+        lsl = observation_from_log(record, cfg, k).lsl
+        points = ((lsl.p + lsl.q) / 2)[::2]  # the radar reports every other segment's middle
+        detected += len(points)
+        np.savez(readings / f"scan-{record.index}.npz", **{"radar/pose": record.robot_pose, "radar/points": points})
+    run = run_log(INTEL, cfg, limit=3, readings=readings)
+    feature = run.map.segments.features["radar_detection"]
+    assert len(feature) == len(run.map.segments) and (feature == "detected").sum() >= detected > 0
+
+    config = str(configs.path("examples/radar.yaml"))
+    out = tmp_path / "out"
+    assert main(["log", str(INTEL), "--config", config, "--limit", "3", "--out", str(out)]) == 2
+    assert "declares the sensors ['radar']; give their readings with --readings DIR" in capsys.readouterr().err
+    (readings / "scan-2.npz").unlink()
+    assert (
+        main(["log", str(INTEL), "--config", config, "--limit", "3", "--readings", str(readings), "--out", str(out)])
+        == 2
+    )
+    assert f"{readings / 'scan-2.npz'}: no readings for scan 2 of the log" in capsys.readouterr().err
+    np.savez(readings / "scan-2.npz", **{"radar/pose": [0.0, 0.0]})
+    assert (
+        main(["log", str(INTEL), "--config", config, "--limit", "3", "--readings", str(readings), "--out", str(out)])
+        == 2
+    )
+    assert f"{readings / 'scan-2.npz'}: sensor 'radar' (detector): readings need the arrays" in capsys.readouterr().err
+    assert main(["log", str(INTEL), "--limit", "3", "--readings", str(readings), "--out", str(out)]) == 2
+    assert "declares no sensor to read them" in capsys.readouterr().err
+    assert not out.exists()

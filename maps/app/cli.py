@@ -6,11 +6,12 @@
     (``--figures png|svg|pdf|none``, default png; ``--no-figures`` is ``none``)
     into DIR (``docs/SCENARIO.md``); ``--json`` also prints the report on
     standard output, and nothing else goes there.
-``evmap log FILE [--out DIR] [--every N] [--limit N] [--config FILE] [--rule NAME] [--json] [--figures FORMAT] [--force]``
+``evmap log FILE [--out DIR] [--every N] [--limit N] [--readings DIR] [--config FILE] [--rule NAME] [--json] [--figures FORMAT] [--force]``
     a belief map from a robot log (CARMEN, g2o, ROS bag; poses from the log,
     the laser as the contour sensor) with a progress bar on standard error:
     the same artefacts as ``run``, and the ROS map pair ``map.pgm``/``map.yaml``
-    (``docs/SCENARIO.md``, logs section).
+    (``docs/SCENARIO.md``, logs section); ``--readings DIR`` gives the readings of
+    the config's declared (YAML) sensors, ``DIR/scan-N.npz`` per scan used.
 ``evmap compare --rules dempster,yager,... --worlds N --seed S --out DIR [--scheduler ADDRESS]``
     every rule on the same scans of N generated worlds: per-rule and per-world
     tables (CSV, Markdown) and plots (see :mod:`evmap.maps.app.compare`).
@@ -140,6 +141,11 @@ def build_parser() -> argparse.ArgumentParser:
     log.add_argument("--out", default="out", help="directory for the artefacts (default: out)")
     log.add_argument("--every", type=int, default=1, help="use every N-th laser scan (default: 1, all)")
     log.add_argument("--limit", type=int, help="use at most N scans")
+    log.add_argument(
+        "--readings",
+        metavar="DIR",
+        help="readings of the config's declared sensors: DIR/scan-N.npz per scan used (N its number in the log)",
+    )
     log.add_argument("--force", action="store_true", help="replace the directory if it is not empty")
     log.add_argument("--json", action="store_true", help="print report.json on standard output")
     log.add_argument(
@@ -265,7 +271,7 @@ def log_command(args: argparse.Namespace) -> int:
 
     with prepare_out(args.out, args.force) as staging:  # --out checked and claimed before the work
         print(f"evmap: mapping log {args.file} with rule {cfg.rule!r}", file=sys.stderr)
-        run = run_log(args.file, cfg, every=args.every, limit=args.limit, progress=bar)
+        run = run_log(args.file, cfg, every=args.every, limit=args.limit, progress=bar, readings=args.readings)
         summary = write_staged(run, staging, figures=args.figures != "none", figure_format=args.figures)
     fit = summary["line_fit"]
     coverage = "n/a" if fit["coverage_mean"] is None else f"{fit['coverage_mean']:.3f}"

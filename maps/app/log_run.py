@@ -9,6 +9,12 @@ record whose readings are those of the previous used scan brings none); a log
 without any skips the sonar stages and the report says ``"sonar": "none"``.
 PLE's line-fit measures of the laser segments come along.
 
+The config's declared sensors (``extra_sensors``, YAML sensors) read their
+readings from ``readings``, a directory with one file per used scan,
+``scan-N.npz`` (``N`` the scan's 0-based number in the log, arrays named
+``SENSOR/ARRAY``, :func:`~evmap.sources.sensor_kinds.read_readings`); a config
+with declared sensors needs it, one without refuses it.
+
 Examples
 --------
 >>> from pathlib import Path
@@ -35,6 +41,7 @@ from evmap.sources.config import Config
 from evmap.sources.laser import LaserParams
 from evmap.sources.line_fit import log_fit, scan_fit
 from evmap.sources.logs import LogRecord, open_log
+from evmap.sources.sensor_kinds import read_readings
 
 __all__ = ["run_log"]
 
@@ -52,16 +59,19 @@ def run_log(
     limit: int | None = None,
     laser: LaserParams | None = None,
     progress: Progress | None = None,
+    readings: str | Path | None = None,
 ) -> Run:
     """Fold every ``every``-th scan of the log at ``path`` (at most ``limit``) into one belief map.
 
     Raises :class:`~evmap.sources.logs.LogError` (a ValueError naming the file and
-    line) for what the log's reader cannot read, before anything is written.
+    line) for what the log's reader cannot read, and a ValueError naming the file
+    for readings that are missing or wrong, before anything is written.
     """
     if every < 1:
         raise ValueError(f"--every must be at least 1, got {every}")
     if limit is not None and limit < 1:
         raise ValueError(f"--limit must be at least 1, got {limit}")
+    _check_readings(config, readings)
     laser = laser or LaserParams()
     log = open_log(path)
     records: Iterable[LogRecord] = islice(_every(iter(log), every), limit)
@@ -75,7 +85,13 @@ def run_log(
         sonar = record.sonar if record.sonar is not None and record.sonar.stamp != last_sonar else None
         if sonar is not None:
             last_sonar = sonar.stamp
-        obs = observation_from_log(record, config, k, laser, sonar)
+        extra = None if readings is None else _scan_readings(Path(readings), record.index)
+        try:
+            obs = observation_from_log(record, config, k, laser, sonar, extra)
+        except ValueError as e:
+            if extra is None:
+                raise
+            raise ValueError(f"{_readings_file(Path(readings), record.index)}: {e}") from None
         outcomes.append(bm.update(obs))
         seconds.append(time.perf_counter() - start)
         observations.append(obs)
@@ -93,6 +109,36 @@ def run_log(
     )
     total = float(np.sum(seconds))
     return Run(None, config, observations, outcomes, bm, {"fuse": total, "total": total}, summary)
+
+
+def _check_readings(config: Config, readings: str | Path | None) -> None:
+    """Refuse a config with declared sensors and no readings directory, a directory for none, or a missing one."""
+    declared = sorted(config.extra_sensors)
+    if declared and readings is None:
+        raise ValueError(
+            f"{config.name}: declares the sensors {declared}; give their readings with --readings DIR "
+            "(one scan-N.npz per scan used, arrays SENSOR/ARRAY)"
+        )
+    if readings is not None and not declared:
+        raise ValueError(f"--readings {readings}: the config {config.name} declares no sensor to read them")
+    if readings is not None and not Path(readings).is_dir():
+        raise ValueError(f"--readings {readings}: no such directory")
+
+
+def _readings_file(directory: Path, index: int) -> Path:
+    """Where the declared sensors' readings at scan ``index`` of the log are."""
+    return directory / f"scan-{index}.npz"
+
+
+def _scan_readings(directory: Path, index: int) -> dict[str, dict[str, np.ndarray]]:
+    """The declared sensors' readings at scan ``index`` of the log (:func:`_readings_file`)."""
+    path = _readings_file(directory, index)
+    if not path.is_file():
+        raise ValueError(f"{path}: no readings for scan {index} of the log")
+    try:
+        return read_readings(path)
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{path}: {e}") from None
 
 
 def _every(records: Iterator[T], every: int) -> Iterator[T]:
