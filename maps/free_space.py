@@ -22,8 +22,8 @@ A sensor sees nothing behind a surface, so each pose's free space ends at the
 first believed line (``Bel(real) >= min_belief``) that it meets: the line's
 shadow from the pose is cut away; and at every believed unidentified object, a
 face ``object_width`` across toward each pose that heard it (glass heard at
-normal incidence: the stripe goes through the pane, the sonar does not). The map's free space is the union over poses.
-A map that remembers no pose (hand-made, or from an older file) has its stored
+normal incidence: the stripe goes through the pane, the sonar does not). The
+map's free space is the union over poses. A map that remembers no pose (hand-made, or from an older file) has its stored
 open space as it is.
 
 The occupancy grid (:mod:`evmap.maps.occupancy`) takes its free evidence from

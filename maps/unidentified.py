@@ -10,8 +10,9 @@ point within ``unidentified.explained_distance`` of a believed map line
 (:data:`BELIEVED`) may be that line's echo (the matching missed it: the line's
 own simulated RCD is cut differently, merged with a neighbour's, or shifted
 past a gate). With ``unidentified.behind_contour``, an arc point beyond the
-pose's own stripe (:func:`evmap.maps.free_space.contour_bound`: its points, and
-the chords across gaps in it) is explained too: sound does not come back
+pose's own stripe (:func:`evmap.maps.free_space.contour_bound` of its points on
+believed lines, and of the chords across gaps between believed lines that the
+chord continues: panes in a wall) is explained too: sound does not come back
 through the surface the stripe measured, so the echo is a multiple reflection.
 An RCD whose whole arc is explained makes no object; one beside a wall (a
 window in it) makes its object on the part beside the line. An object that a
@@ -112,8 +113,8 @@ def drop_explained(bm: BeliefMap, config: Config) -> list[str]:
     removed = []
     for u in bm.unidentified():
         x, y = u.xy
-        near = [n for n in bm.near((x - distance, y - distance, x + distance, y + distance), "lines")]
-        near = [n for n in near if bm.mass(n).belief("real") >= BELIEVED]
+        near = bm.near((x - distance, y - distance, x + distance, y + distance), "lines")
+        near = [n for n in sorted(near) if bm.mass(n).belief("real") >= BELIEVED]
         if not near:
             continue
         ends = [bm.ends(n) for n in near]
