@@ -37,7 +37,7 @@ RULE_COLUMNS = {
     "map_error": ("map error (m)", "{:.3f}"),
     "spurious_unidentified": ("spurious unidentified", "{:.3f}"),
     "free_behind_walls": ("free cells behind walls", "{:.3f}"),
-    "free_behind_opaque": ("of them behind opaque walls", "{:.4f}"),
+    "free_behind_opaque": ("free cells behind opaque walls", "{:.4f}"),
     "free_seen_kept": ("seen free kept", "{:.3f}"),
     "noise_recall_pooled": ("noise recall, pooled", "{:.3f}"),
     "real_loss_pooled": ("real loss, pooled", "{:.3f}"),
