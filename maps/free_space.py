@@ -89,35 +89,22 @@ def ray_fan(s: Sensed, params: FreeSpaceParams) -> shapely.Geometry:
     return shapely.union_all([shapely.Polygon(np.vstack([s.origin, run])) for run in runs])
 
 
-def surface_rays(bm: BeliefMap, s: Sensed, params: FreeSpaceParams, believed: bool = False) -> Sensed:
-    """The pose's readings with the rays that ended on no surface taken as returning nothing.
+def surface_rays(s: Sensed, p: NDArray[np.float64], q: NDArray[np.float64], margin: float, *, on: bool) -> Sensed:
+    """The pose's readings with only the rays that ended on surfaces still returned.
 
-    A phantom's stripe points are pixels, not a surface: the rays that ended on the pose's own
-    segments judged noise bound nothing; with ``believed``, only the rays
-    that ended on a line believed real (``Bel(real) >= min_belief``) do.
+    The surfaces are the segments p-q (``on``: a ray ending within ``margin`` of one is on a
+    surface) or everything but them (not ``on``: the pose's own segments judged noise, say:
+    a phantom's stripe points are pixels, not a surface). The other rays return nothing.
     """
-    if believed:
-        kept = lines(bm, params.min_belief)
-        p = np.array([ln.p for ln in kept], dtype=float).reshape(-1, 2)
-        q = np.array([ln.q for ln in kept], dtype=float).reshape(-1, 2)
-        drop = np.isfinite(s.range) & ~_rays_on(s, p, q, params.margin)
-    else:
-        store = bm.segments
-        noise = np.flatnonzero((store.pose == s.pose_index) & store.eliminated)
-        drop = _rays_on(s, store.p[noise], store.q[noise], params.margin)
-    if not drop.any():
-        return s
-    return replace(s, range=np.where(drop, np.nan, s.range))
-
-
-def _rays_on(s: Sensed, p: NDArray[np.float64], q: NDArray[np.float64], margin: float) -> NDArray[np.bool_]:
-    """Which rays ended within ``margin`` of a segment p-q."""
-    on = np.zeros(len(s.range), dtype=bool)
+    hit = np.zeros(len(s.range), dtype=bool)
     ok = np.flatnonzero(np.isfinite(s.range))
     if len(ok) and len(p):
         xy = s.origin + s.range[ok, None] * np.column_stack([np.cos(s.bearing[ok]), np.sin(s.bearing[ok])])
-        on[ok] = point_segment_distances(xy[:, None], p[None], q[None]).min(axis=1) <= margin
-    return on
+        hit[ok] = point_segment_distances(xy[:, None], p[None], q[None]).min(axis=1) <= margin
+    drop = np.isfinite(s.range) & (hit != on)
+    if not drop.any():
+        return s
+    return replace(s, range=np.where(drop, np.nan, s.range))
 
 
 def contour_bound(
@@ -210,7 +197,7 @@ def free_space(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shapely.
     poses = sensed(bm)
     if not poses:
         return bm.open_space
-    config = bm.config
+    config, store = bm.config, bm.segments
     believed = lines(bm, params.min_belief)
     p = np.array([ln.p for ln in believed], dtype=float).reshape(-1, 2)
     q = np.array([ln.q for ln in believed], dtype=float).reshape(-1, 2)
@@ -221,7 +208,9 @@ def free_space(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shapely.
         seen = [ray_fan(s, params)]
         if s.sonar is not None:
             sonar = open_space(s.sonar, extract_rcds(s.sonar, config.rcd, primitive=True), config.open_space)
-            bound = contour_bound(surface_rays(bm, s, params), params, s.sonar.params.max_range + 1.0)
+            noise = np.flatnonzero((store.pose == s.pose_index) & store.eliminated)
+            surfaces = surface_rays(s, store.p[noise], store.q[noise], params.margin, on=False)
+            bound = contour_bound(surfaces, params, s.sonar.params.max_range + 1.0)
             seen.append(sonar if bound is None else shapely.intersection(sonar, bound))
         free = shapely.union_all(seen)
         if len(p) and not free.is_empty:

@@ -149,7 +149,7 @@ def _unexplained(
     sensed = pose_sensed(bm, pose_index) if params.behind_contour else None
     if sensed is not None:
         shape = FreeSpaceParams()
-        surfaces = surface_rays(bm, sensed, shape, believed=True)
+        surfaces = surface_rays(sensed, s.p[believed], s.q[believed], shape.margin, on=True)
         on_wall = _in_line(s.p[believed], s.q[believed], shape.margin)
         bound = contour_bound(surfaces, shape, float(actual.range[keep].max()) + 1.0, on_wall)
         if bound is not None:  # the arc point pulled back by the margins must lie inside the stripe's bound
