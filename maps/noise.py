@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from evidential import combine_batch
 from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally
 from evmap.maps.merging import related_pairs
-from evmap.maps.sensed import SENSED_FEATURES, keep_features, sensed
+from evmap.maps.sensed import SENSED_FEATURES, keep_features, sensed_near
 from evmap.maps.sonar_forward import SonarForwardParams, free_ends, sonar_forward
 from evmap.sources.config import Config
 from evmap.sources.params import MergeParams
@@ -33,6 +33,10 @@ __all__ = ["COMPUTED", "NoiseEvidence", "judge", "noise_evidence", "other_poses"
 
 COMPUTED = ("relation", "length", "lsl_other_poses", "contour_free", "lsl_persistence", "sonar_forward")
 """The features the pipeline computes for the noise-elimination sources (an observation brings any others)."""
+
+LATEST_POSES = 16
+"""The features of the sensed readings judge a segment by the latest poses whose readings reach it, at most
+this many (a scenario has at most 10 poses: all of them; a robot log passes the same place hundreds of times)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,7 +111,8 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
     near the segments only. The features of the sensed readings
     (:mod:`evmap.maps.sensed`) are computed when a source reads them:
     ``contour_free`` and ``lsl_persistence`` (:mod:`evmap.maps.contour_free_space`)
-    and ``sonar_forward`` (:mod:`evmap.maps.sonar_forward`).
+    and ``sonar_forward`` (:mod:`evmap.maps.sonar_forward`), from the readings of
+    the latest :data:`LATEST_POSES` poses that reach the segments.
     """
     store = bm.segments
     if not len(ids):
@@ -126,7 +131,7 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
         for stage in ("noise_elimination", "repeated_observation")
         for source in config.stage_sources(stage)
     }
-    poses = sensed(bm)
+    poses = sensed_near(bm, (*lo, *hi), config.sensors.lsl.max_range, LATEST_POSES)
     if read & {"contour_free", "lsl_persistence"}:
         lsl = config.sensors.lsl
         params = RayParams(range_noise=lsl.range_noise, max_range=lsl.max_range)

@@ -116,11 +116,15 @@ def end_moves(
     bm: BeliefMap, fits: dict[str, NDArray[np.float64]], near: NearEnds, config: Config
 ) -> dict[str, list[tuple[str, tuple[float, float]]] | None]:
     """Where the end points of each line of ``fits`` go when the lines take their new fits: a free end onto
-    its fit end, a corner of two lines to the midpoint of their fit ends; None for a line whose corners would
-    change (an end meeting an end of ``near`` that it did not meet, or leaving its corner's other line).
+    its fit end, a corner to the mean of its lines' fit ends; None for a line whose corners would change.
+
+    A corner stays the corner :func:`~evmap.maps.corners.find_corners` finds when its lines' ends (the new
+    fits where refitted) are still linked into one set (within the corner distance, across the minimum
+    angle) and the line's end links to no end of another point; a free end stays free when it links to none.
     """
     g = bm.graph
     cos_max = np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
+    reach = config.corners.distance + 1e-9
     lids = list(fits)
     own = np.array([fits[lid] for lid in lids], dtype=float).reshape(-1, 2, 2)
     u = own[:, 1] - own[:, 0]
@@ -128,21 +132,44 @@ def end_moves(
     ends = own.reshape(-1, 2)  # line k's end e is row 2k + e
     dist = np.hypot(*(ends[:, None, :] - near.ends[None, :, :]).transpose(2, 0, 1))
     across = np.abs(np.repeat(u, 2, axis=0) @ near.u.T) <= cos_max
-    close = (dist <= config.corners.distance + 1e-9) & across
+    close = (dist <= reach) & across
+    at: dict[str, list[int]] = {}
+    for i, (_, node) in enumerate(near.pairs):
+        at.setdefault(node, []).append(i)
     moves: dict[str, list[tuple[str, tuple[float, float]]] | None] = {}
     for k, lid in enumerate(lids):
         found: list[tuple[str, tuple[float, float]]] | None = []
         for e, node in enumerate(bm.ends(lid)):
-            end = ends[2 * k + e]
-            meets = [i for i in np.flatnonzero(close[2 * k + e]).tolist() if near.pairs[i][0] != lid]
+            meets = {i for i in np.flatnonzero(close[2 * k + e]).tolist() if near.pairs[i][0] != lid}
             kind = g.nodes[node]["kind"]
             if kind == "endpoint" and not meets:
+                end = ends[2 * k + e]
                 found.append((node, (float(end[0]), float(end[1]))))
-            elif kind == "corner" and g.degree(node) == 2 and len(meets) == 1 and near.pairs[meets[0]][1] == node:
-                mid = (end + near.ends[meets[0]]) / 2
+            elif (
+                kind == "corner"
+                and meets
+                and meets <= set(at.get(node, ()))
+                and _linked(near, at[node], g.degree(node), reach, cos_max)
+            ):
+                mid = near.ends[at[node]].mean(axis=0)
                 found.append((node, (float(mid[0]), float(mid[1]))))
             else:
                 found = None
                 break
         moves[lid] = found
     return moves
+
+
+def _linked(near: NearEnds, rows: list[int], degree: int, reach: float, cos_max: float) -> bool:
+    """Whether the ends ``rows`` of ``near`` (one per line, ``degree`` of them: every line of their point)
+    are linked into one set, as corners link ends."""
+    lines = [near.pairs[i][0] for i in rows]
+    if len(rows) != degree or len(set(lines)) != len(lines):
+        return False
+    xy, u = near.ends[rows], near.u[rows]
+    link = (np.hypot(*(xy[:, None] - xy[None]).transpose(2, 0, 1)) <= reach) & (np.abs(u @ u.T) <= cos_max)
+    reached = np.zeros(len(rows), dtype=bool)
+    reached[0] = True
+    for _ in range(len(rows)):
+        reached |= link[reached].any(axis=0)
+    return bool(reached.all())

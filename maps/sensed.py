@@ -13,6 +13,7 @@ computed from them) the form that ``map.json`` keeps in its optional graph key
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
 
@@ -39,6 +40,7 @@ __all__ = [
     "sensed",
     "sensed_from_json",
     "sensed_json",
+    "sensed_near",
 ]
 
 SENSED_KEY = "sensed"
@@ -66,6 +68,14 @@ class Sensed:
     bearing: NDArray[np.float64]
     range: NDArray[np.float64]
     sonar: SonarScan | None
+
+    @cached_property
+    def reach(self) -> float:
+        """How far from the origin its readings can tell anything: its farthest stripe point, or its
+        sonar's range (0 without readings)."""
+        returned = self.range[np.isfinite(self.range)]
+        sonar = 0.0 if self.sonar is None else self.sonar.params.max_range
+        return max(float(returned.max()) if len(returned) else 0.0, sonar)
 
 
 _MEMORY: WeakKeyDictionary[BeliefMap, dict[int, Sensed]] = WeakKeyDictionary()
@@ -122,6 +132,24 @@ def sensed(bm: BeliefMap) -> list[Sensed]:
     """The readings of every pose remembered for this map, by pose index."""
     memory = _memory(bm)
     return [memory[k] for k in sorted(memory)]
+
+
+def sensed_near(bm: BeliefMap, bounds: tuple[float, float, float, float], reach: float, latest: int) -> list[Sensed]:
+    """The latest ``latest`` poses (by pose index) whose readings can reach the box ``bounds`` (xmin, ymin,
+    xmax, ymax): its distance from their origin at most their :attr:`Sensed.reach`, or ``reach``.
+
+    A place seen again and again is judged by its latest poses: what an update costs does not grow with
+    the number of times the robot came by.
+    """
+    poses = sensed(bm)
+    if not poses:
+        return []
+    origin = np.array([s.origin for s in poses])
+    far = np.maximum(np.array([s.reach for s in poses]), reach)
+    lo, hi = np.asarray(bounds[:2]), np.asarray(bounds[2:])
+    gap = np.hypot(*(origin - np.clip(origin, lo, hi)).T)
+    near = np.flatnonzero(gap <= far)[-latest:]
+    return [poses[k] for k in near.tolist()]
 
 
 def pose_sensed(bm: BeliefMap, pose_index: int) -> Sensed | None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -9,7 +11,7 @@ from evmap import configs
 from evmap.maps import BeliefMap, new_map
 from evmap.maps.map_file import MapFileError, map_data, read_map
 from evmap.maps.observation import observe
-from evmap.maps.sensed import SENSED_KEY, sensed
+from evmap.maps.sensed import SENSED_KEY, remember, sensed, sensed_near
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import load_scenario
 from evmap.sources.sim.world import World
@@ -65,3 +67,15 @@ def test_a_broken_sensed_key_is_named(config, observations):
     data["graph"][SENSED_KEY]["poses"][0]["range"] = [1.0]
     with pytest.raises(MapFileError, match=r"graph\.sensed.*poses\[0\]: bearing and range"):
         read_map(data)
+
+
+def test_a_segment_is_judged_by_the_latest_poses_that_reach_it(config):
+    """``sensed_near``: poses whose stripe or sonar reaches the box, the latest ``latest`` of them, by pose."""
+    bm = new_map(config)
+    for k, x in enumerate([0.0, 1.0, 30.0, 2.0, 3.0]):  # pose 2 is 30 m away: its 5 m rays reach nothing here
+        rays = np.column_stack([np.linspace(-1, 1, 5), np.full(5, 5.0)])
+        remember(bm, SimpleNamespace(pose_index=k, pose=np.array([x, 0.0, 0.0]), rays=rays, sonar=None))
+    box = (0.0, -1.0, 4.0, 1.0)
+    assert [s.pose_index for s in sensed_near(bm, box, 0.0, latest=10)] == [0, 1, 3, 4]
+    assert [s.pose_index for s in sensed_near(bm, box, 0.0, latest=2)] == [3, 4]
+    assert [s.pose_index for s in sensed_near(bm, box, 40.0, latest=10)] == [0, 1, 2, 3, 4]
