@@ -64,28 +64,47 @@ class RayTally:
 
 
 def _crossings(
-    p: NDArray[np.float64], q: NDArray[np.float64], s: Sensed, params: RayParams
-) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """(segment, kind) of every ray of ``s`` crossing a segment's interior; kind 0 ends, 1 passes, 2 short, 3 none."""
-    a, b = p - s.origin, q - s.origin
+    p: NDArray[np.float64], q: NDArray[np.float64], poses: Sequence[Sensed], params: RayParams
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
+    """(segment, pose, kind) of every ray of the ``poses`` (their positions in the sequence) crossing a segment's
+    interior; kind 0 ends, 1 passes, 2 short, 3 none.
+
+    All poses at once: each pose's bearings, doubled over two turns, are laid end to end ``4 pi`` apart, so that
+    one sorted array and one ``searchsorted`` find every (segment, pose) pair's rays.
+    """
+    n, m = len(p), len(poses)
+    origin = np.array([s.origin for s in poses], dtype=float).reshape(-1, 2)
+    sizes = np.array([len(s.bearing) for s in poses], dtype=np.intp)
+    starts = np.r_[0, np.cumsum(sizes)[:-1]]
+    bearing = np.concatenate([np.zeros(0), *(s.bearing for s in poses)])
+    rng = np.concatenate([np.zeros(0), *(s.range for s in poses)])
+    shift = 4 * np.pi * np.arange(m)
+    doubled = np.concatenate(
+        [np.zeros(0), *(np.r_[s.bearing, s.bearing + 2 * np.pi] + shift[k] for k, s in enumerate(poses))]
+    )
+    a = (p[None] - origin[:, None]).reshape(-1, 2)  # (pose, segment) pairs, pose-major
+    b = (q[None] - origin[:, None]).reshape(-1, 2)
     a1, a2 = np.arctan2(a[:, 1], a[:, 0]), np.arctan2(b[:, 1], b[:, 0])
     span = (a2 - a1 + np.pi) % (2 * np.pi) - np.pi
     lo = np.where(span >= 0, a1, a2)
-    lo = (lo + np.pi) % (2 * np.pi) - np.pi
-    bearing = np.concatenate([s.bearing, s.bearing + 2 * np.pi])
-    first = np.searchsorted(bearing, lo)
-    last = np.searchsorted(bearing, lo + np.abs(span))
+    lo = (lo + np.pi) % (2 * np.pi) - np.pi + np.repeat(shift, n)
+    first = np.searchsorted(doubled, lo)
+    last = np.searchsorted(doubled, lo + np.abs(span))
     count = np.maximum(last - first, 0)
-    seg = np.repeat(np.arange(len(p)), count)
-    ray = (np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())) % max(len(s.bearing), 1)
-    theta, r = s.bearing[ray], s.range[ray]
+    pair = np.repeat(np.arange(n * m), count)
+    k, seg = pair // n, pair % n
+    at = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())  # in ``doubled``
+    size = np.maximum(sizes[k], 1)
+    ray = starts[k] + (at - 2 * starts[k]) % size  # ``doubled`` holds 2 * size entries a pose, in order
+    theta, r = bearing[ray], rng[ray]
     u = np.column_stack([np.cos(theta), np.sin(theta)])
-    e = b[seg] - a[seg]
+    a, b = a[pair], b[pair]
+    e = b - a
     length = np.maximum(np.hypot(*e.T), 1e-12)
     cross = u[:, 0] * e[:, 1] - u[:, 1] * e[:, 0]
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = (a[seg, 0] * e[:, 1] - a[seg, 1] * e[:, 0]) / cross  # range of the crossing along the ray
-        along = (a[seg, 0] * u[:, 1] - a[seg, 1] * u[:, 0]) / cross * length  # metres along the segment
+        t = (a[:, 0] * e[:, 1] - a[:, 1] * e[:, 0]) / cross  # range of the crossing along the ray
+        along = (a[:, 0] * u[:, 1] - a[:, 1] * u[:, 0]) / cross * length  # metres along the segment
     sin = np.abs(cross) / length
     margin = np.minimum(params.end_margin, length / 4)  # a short segment keeps the middle half of it
     inside = (np.abs(cross) > 1e-12) & (t > 0) & (along >= margin) & (along <= length - margin)
@@ -94,7 +113,7 @@ def _crossings(
     kind = np.select([np.isnan(r), across > tol, across < -tol], [3, 1, 2], 0)
     kind[np.isnan(r) & (t > params.max_range)] = 4  # out of range: not counted
     keep = inside & (kind < 4)
-    return seg[keep], kind[keep]
+    return seg[keep], k[keep], kind[keep]
 
 
 def ray_tally(
@@ -112,22 +131,18 @@ def ray_tally(
     >>> tally.passes.tolist(), tally.ends.tolist(), tally.other_misses[:, 0].tolist()
     ([13, 0], [0, 7], [13, 0])
     """
-    n = len(p)
-    ends, passes = np.zeros(n, dtype=np.intp), np.zeros(n, dtype=np.intp)
-    other_ends = np.zeros((n, len(poses)), dtype=np.intp)
-    other_misses = np.zeros((n, len(poses)), dtype=np.intp)
-    for k, s in enumerate(poses):
-        if not len(s.bearing) or not n:
-            continue
-        seg, kind = _crossings(p, q, s, params)
-        by_kind = np.zeros((n, 4), dtype=np.intp)
-        np.add.at(by_kind, (seg, kind), 1)
-        ends += by_kind[:, 0]
-        passes += by_kind[:, 1]
-        other = pose != s.pose_index
-        other_ends[other, k] = by_kind[other, 0]
-        other_misses[other, k] = by_kind[other, 1] + by_kind[other, 3]
-    return RayTally(ends, passes, other_ends, other_misses)
+    n, m = len(p), len(poses)
+    by_kind = np.zeros((n, m, 4), dtype=np.intp)
+    if n and m:
+        seg, k, kind = _crossings(p, q, poses, params)
+        np.add.at(by_kind, (seg, k, kind), 1)
+    other = pose[:, None] != np.array([s.pose_index for s in poses], dtype=np.intp)[None, :]
+    return RayTally(
+        by_kind[:, :, 0].sum(axis=1),
+        by_kind[:, :, 1].sum(axis=1),
+        np.where(other, by_kind[:, :, 0], 0),
+        np.where(other, by_kind[:, :, 1] + by_kind[:, :, 3], 0),
+    )
 
 
 def ray_features(tally: RayTally, params: RayParams) -> dict[str, NDArray[np.str_]]:

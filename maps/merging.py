@@ -12,8 +12,9 @@ overlapping snapshots). Two lines are *related* when
 Procedure, repeated until a round merges nothing:
 
 1. Candidate pairs come from a spatial index (``shapely.STRtree``, segments
-   within ``hypot(gap, distance)`` of each other, a bound every related pair
-   meets); the relation is then tested on the candidates with numpy.
+   whose bounding boxes come within ``hypot(gap, distance)`` of each other, a
+   bound every related pair meets); the relation is then tested on the
+   candidates with numpy.
 2. The connected components of the relation are the proposed groups. Each
    group is refitted (below) from its *input* segments, and accepted only if
    every input member stays within the tolerances of the refitted line: its
@@ -182,15 +183,13 @@ def related_pairs(
     (array([], dtype=int64), array([], dtype=int64))
     """
     reach = np.hypot(params.gap, params.distance) + _EPS
-    lines = shapely.linestrings(np.stack([p, q], axis=1))
+    op, oq = (p, q) if others is None else others
+    lo, hi = np.minimum(p, q) - reach, np.maximum(p, q) + reach
+    tree = shapely.STRtree(shapely.linestrings(np.stack([op, oq], axis=1)))
+    a, b = tree.query(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]))  # boxes meeting: a superset, cheap
     if others is None:
-        a, b = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=reach)
         keep = a < b
-        return _relation(p, q, p, q, a[keep], b[keep], params)
-    op, oq = others
-    a, b = shapely.STRtree(shapely.linestrings(np.stack([op, oq], axis=1))).query(
-        lines, predicate="dwithin", distance=reach
-    )
+        a, b = a[keep], b[keep]
     return _relation(p, q, op, oq, a, b, params)
 
 

@@ -28,6 +28,7 @@ from evmap.sources.relation import relation
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
+    from evmap.maps.segments import SegmentStore
 
 __all__ = ["COMPUTED", "NoiseEvidence", "judge", "noise_evidence", "other_poses"]
 
@@ -120,8 +121,7 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
     ends = np.concatenate([store.p[ids], store.q[ids]])
     lo, hi = ends.min(axis=0), ends.max(axis=0)
     space = bm.open_space_near((*lo, *hi))
-    reach = config.merge.distance + config.merge.gap
-    near = store.near((*(lo - reach), *(hi + reach)))
+    near = _near_each(store, ids, config.merge.distance + config.merge.gap)
     seen = other_poses(
         store.p[ids], store.q[ids], store.pose[ids], store.p[near], store.q[near], store.pose[near], config.merge
     )
@@ -146,6 +146,17 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
     store.mass[ids] = ev.fused
     store.conflict[ids] = ev.conflict
     store.eliminated[ids] = ev.eliminated
+
+
+def _near_each(store: SegmentStore, ids: NDArray[np.intp], reach: float) -> NDArray[np.intp]:
+    """The stored segments whose boxes meet the box of one of the segments ``ids`` grown by ``reach``, sorted."""
+    lo = np.minimum(store.p[ids], store.q[ids]) - reach
+    hi = np.maximum(store.p[ids], store.q[ids]) + reach
+    found = store.near((*lo.min(axis=0), *hi.max(axis=0)))
+    flo, fhi = np.minimum(store.p[found], store.q[found]), np.maximum(store.p[found], store.q[found])
+    tree = shapely.STRtree(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]))
+    meets, _ = tree.query(shapely.box(flo[:, 0], flo[:, 1], fhi[:, 0], fhi[:, 1]))
+    return found[np.unique(meets)]
 
 
 def other_poses(

@@ -79,6 +79,9 @@ class Sensed:
 
 
 _MEMORY: WeakKeyDictionary[BeliefMap, dict[int, Sensed]] = WeakKeyDictionary()
+_PLACES: WeakKeyDictionary[BeliefMap, tuple[list[Sensed], NDArray[np.float64], NDArray[np.float64]]] = (
+    WeakKeyDictionary()
+)  # the poses by pose index, their origins and reaches: kept as poses are remembered
 _FEATURES: WeakKeyDictionary[BeliefMap, dict[str, NDArray[np.str_]]] = WeakKeyDictionary()
 
 
@@ -100,6 +103,12 @@ def remember(bm: BeliefMap, obs: Observation) -> Sensed:
     order = np.argsort(bearing, kind="stable")
     kept = Sensed(int(obs.pose_index), np.array(obs.pose[:2]), bearing[order], rays[order, 1], obs.sonar)
     _memory(bm)[kept.pose_index] = kept
+    if bm in _PLACES:
+        poses, origin, reach = _PLACES[bm]
+        if poses and kept.pose_index > poses[-1].pose_index:  # the usual case: the next pose, appended
+            _PLACES[bm] = ([*poses, kept], np.vstack([origin, kept.origin]), np.append(reach, kept.reach))
+        else:
+            del _PLACES[bm]
     return kept
 
 
@@ -112,6 +121,7 @@ def forget(bm: BeliefMap, pose_index: int, features: dict[str, NDArray[np.str_]]
     """Forget what a pose sensed and put back the segments' features of a :func:`features_checkpoint` (the
     pose's update failed, and the map is put back as it was before it)."""
     _memory(bm).pop(int(pose_index), None)
+    _PLACES.pop(bm, None)
     if features:
         _FEATURES[bm] = features
     else:
@@ -141,11 +151,13 @@ def sensed_near(bm: BeliefMap, bounds: tuple[float, float, float, float], reach:
     A place seen again and again is judged by its latest poses: what an update costs does not grow with
     the number of times the robot came by.
     """
-    poses = sensed(bm)
+    if bm not in _PLACES:
+        poses = sensed(bm)
+        _PLACES[bm] = (poses, np.array([s.origin for s in poses]).reshape(-1, 2), np.array([s.reach for s in poses]))
+    poses, origin, far = _PLACES[bm]
     if not poses:
         return []
-    origin = np.array([s.origin for s in poses])
-    far = np.maximum(np.array([s.reach for s in poses]), reach)
+    far = np.maximum(far, reach)
     lo, hi = np.asarray(bounds[:2]), np.asarray(bounds[2:])
     gap = np.hypot(*(origin - np.clip(origin, lo, hi)).T)
     near = np.flatnonzero(gap <= far)[-latest:]

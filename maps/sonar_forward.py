@@ -30,6 +30,7 @@ import shapely
 from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed
+from evmap.sources.geometry import point_segment_distances
 from evmap.sources.readings import SonarScan
 
 __all__ = ["SonarForwardParams", "free_ends", "sonar_forward"]
@@ -101,7 +102,9 @@ def free_ends(
     e = q - p
     for k, point in enumerate((p, q)):
         # pairs (end, other segment) within the clearance: the only ones that can hold the end
-        i, j = tree.query(shapely.points(point), predicate="dwithin", distance=clearance)
+        i, j = tree.query(shapely.box(*(point - clearance).T, *(point + clearance).T))  # boxes meeting
+        close = point_segment_distances(point[i], op[j], oq[j]) <= clearance
+        i, j = i[close], j[close]
         same = (np.abs(op[j] - p[i]).sum(axis=1) < 1e-12) & (np.abs(oq[j] - q[i]).sum(axis=1) < 1e-12)
         i, j = i[~same], j[~same]
         d = oq[j] - op[j]

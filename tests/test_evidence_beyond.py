@@ -117,6 +117,27 @@ def test_ray_tally_kinds() -> None:
     assert features["contour_free"].tolist() == ["contradicted", "clear", "clear"]
 
 
+def test_ray_tally_of_many_poses_is_that_of_each_pose_alone() -> None:
+    """All poses in one call (bearings laid end to end) count as each pose counted alone would."""
+    rng = np.random.default_rng(7)
+    sonar = SonarScan.from_readings([0.0], [1.0], SonarParams())
+    poses = []
+    for k in range(6):
+        bearing = np.sort(rng.uniform(-np.pi, np.pi, 0 if k == 2 else 300))
+        reach = rng.uniform(0.5, 6.0, len(bearing))
+        reach[rng.random(len(bearing)) < 0.1] = np.nan
+        poses.append(Sensed(k, rng.uniform(-3, 3, 2), bearing, reach, sonar))
+    p, q = rng.uniform(-4, 4, (40, 2)), rng.uniform(-4, 4, (40, 2))
+    pose = rng.integers(0, 6, 40)
+    together = ray_tally(p, q, pose, poses, RayParams())
+    alone = [ray_tally(p, q, pose, [s], RayParams()) for s in poses]
+    assert together.ends.tolist() == sum(t.ends for t in alone).tolist()
+    assert together.passes.tolist() == sum(t.passes for t in alone).tolist()
+    assert together.other_ends.tolist() == np.hstack([t.other_ends for t in alone]).tolist()
+    assert together.other_misses.tolist() == np.hstack([t.other_misses for t in alone]).tolist()
+    assert together.passes.sum() > 0 and together.ends.sum() >= 0
+
+
 def test_sonar_forward_edges_and_oblique_walls() -> None:
     angles = np.radians(np.arange(-180, 180))
     scan = SonarScan.from_readings(angles, np.full(360, 4.0), SonarParams())
