@@ -45,7 +45,7 @@ from evidential import RULES, Frame, MassFunction
 from evmap.maps import map_file, map_json, occupancy, planner
 from evmap.maps.all_or_nothing import all_or_nothing
 from evmap.maps.map_checks import check_extras
-from evmap.maps.map_file import GRAPH_KEYS, ID_PREFIXES, MapParts
+from evmap.maps.map_format import GRAPH_KEYS, ID_PREFIXES, SCHEMA_VERSION, MapParts
 from evmap.maps.map_objects import MapObjects
 from evmap.maps.observation import Observation
 from evmap.maps.open_space_pieces import OpenSpacePieces
@@ -104,7 +104,7 @@ class BeliefMap:
         check_extras(attrs, GRAPH_KEYS, "graph")
         self._frame = frame
         self._graph = nx.Graph(
-            schema_version=map_file.SCHEMA_VERSION,
+            schema_version=SCHEMA_VERSION,
             frame=list(frame.elements),
             rule=rule,
             open_space=map_json.geojson(shapely.MultiPolygon()),
