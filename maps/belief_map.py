@@ -53,7 +53,8 @@ from evmap.maps.pipeline import PoseOutcome, fold_observation
 from evmap.maps.planner import Line, Point
 from evmap.maps.segments import SegmentStore
 from evmap.maps.spatial import Bounds
-from evmap.sources.config import Config, config_from_data
+from evmap.sources.config import config_from_data
+from evmap.sources.config_model import Config
 
 __all__ = ["BeliefMap", "new_map"]
 

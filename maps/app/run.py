@@ -20,7 +20,7 @@ from evmap.maps.belief_map import BeliefMap
 from evmap.maps.observation import Observation, observe
 from evmap.maps.pipeline import PoseOutcome
 from evmap.maps.segments import SegmentStore
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 from evmap.sources.sim.scenario import Scenario
 from evmap.sources.sim.world import World
 
