@@ -153,7 +153,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     log.set_defaults(handler=log_command)
 
-    add_compare_parser(commands)
+    add_compare_parser(commands, compare_command)
 
     config = commands.add_parser("config", help="check a config file, explain its evidence sources")
     config.set_defaults(handler=lambda args: _usage(config))
@@ -221,6 +221,13 @@ def list_sources(args: argparse.Namespace) -> int:
     out += [f"refused: {p.group.removeprefix('evmap.')} {p.name} from {p.origin}: {p.problem}" for p in refused]
     print("\n".join(out))
     return 0
+
+
+def compare_command(args: argparse.Namespace) -> int:
+    """``evmap compare`` (:func:`evmap.maps.app.compare.compare_command`)."""
+    from evmap.maps.app.compare import compare_command
+
+    return compare_command(args)
 
 
 def run_command(args: argparse.Namespace) -> int:
