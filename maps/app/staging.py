@@ -27,7 +27,8 @@ Rules
   made by ``mkdtemp``/``mkstemp`` (0700/0600).
 
 The data (marker, layouts, :class:`Staging`, :class:`OutputError`) are in
-:mod:`evmap.maps.app.output_layout`, the lock in :mod:`evmap.maps.app.output_lock`.
+:mod:`evmap.maps.app.output_layout` (import them from there), the lock in
+:mod:`evmap.maps.app.output_lock`.
 """
 
 from __future__ import annotations
@@ -55,18 +56,7 @@ from evmap.maps.app.output_layout import (
 )
 from evmap.maps.app.output_lock import lock_output, process_alive
 
-__all__ = [
-    "COMPARE_LAYOUT",
-    "MARKER",
-    "MIN_FREE_BYTES",
-    "RUN_LAYOUT",
-    "Layout",
-    "OutputError",
-    "Staging",
-    "claim_output",
-    "owned_entries",
-    "write_text_atomic",
-]
+__all__ = ["claim_output", "owned_entries", "write_text_atomic"]
 
 
 def _read_umask() -> int:
