@@ -203,8 +203,7 @@ def list_rules(args: argparse.Namespace) -> int:
 def list_sources(args: argparse.Namespace) -> int:
     """``evmap sources``: every kind of evidence source and of sensor, where it comes from; refused plugins."""
     from evmap.sources.evidence import KINDS
-    from evmap.sources.plugins import load_plugins, origin_of
-    from evmap.sources.sim.sensor_models import sensor_kinds
+    from evmap.sources.plugins import load_plugins, origin_of, sensor_kinds
 
     groups = ("evmap.source_kinds", "evmap.sensor_kinds")
     refused = [p for p in load_plugins() if p.group in groups and p.problem]
