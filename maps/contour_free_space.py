@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed
+from evmap.sources.geometry import crossings
 
 __all__ = ["RayParams", "RayTally", "ray_features", "ray_tally"]
 
@@ -82,10 +83,9 @@ def _crossings(
     u = np.column_stack([np.cos(theta), np.sin(theta)])
     e = b[seg] - a[seg]
     length = np.maximum(np.hypot(*e.T), 1e-12)
+    t, along = crossings(np.zeros(2), u, a[seg], e)  # the crossing's range along the ray, its place on the segment
+    along = along * length  # in metres
     cross = u[:, 0] * e[:, 1] - u[:, 1] * e[:, 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (a[seg, 0] * e[:, 1] - a[seg, 1] * e[:, 0]) / cross  # range of the crossing along the ray
-        along = (a[seg, 0] * u[:, 1] - a[seg, 1] * u[:, 0]) / cross * length  # metres along the segment
     sin = np.abs(cross) / length
     margin = np.minimum(params.end_margin, length / 4)  # a short segment keeps the middle half of it
     inside = (np.abs(cross) > 1e-12) & (t > 0) & (along >= margin) & (along <= length - margin)
