@@ -24,9 +24,9 @@ import numpy as np
 import orjson
 
 from evmap.maps import map_format, map_json
+from evmap.maps.atomic_file import write_atomic
 from evmap.maps.map_format import CHECKSUM_KEY, GRAPH_KEYS, SCHEMA_VERSION, MapFileError, MapParts
 from evmap.maps.map_reader import MapReader
-from evmap.maps.occupancy import write_atomic
 from evmap.maps.sensed import SENSED_KEY, sensed_json
 
 if TYPE_CHECKING:

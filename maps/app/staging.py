@@ -55,6 +55,7 @@ from evmap.maps.app.output_layout import (
     Staging,
 )
 from evmap.maps.app.output_lock import lock_output, process_alive
+from evmap.maps.atomic_file import write_atomic
 
 __all__ = ["claim_output", "owned_entries", "write_text_atomic"]
 
@@ -167,16 +168,9 @@ def owned_entries(directory: Path, layout: Layout) -> tuple[list[str], list[str]
 
 
 def write_text_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename, with the umask's permissions."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.chmod(tmp, 0o666 & ~_UMASK)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """Write ``text`` (UTF-8) to ``path`` through a temporary file and a rename, with the umask's permissions
+    (:func:`evmap.maps.atomic_file.write_atomic`; not synced: the staging directory is renamed into place whole)."""
+    write_atomic(path, text.encode("utf-8"), mode=0o666 & ~_UMASK, sync=False)
 
 
 # --------------------------------------------------------------------- checks
