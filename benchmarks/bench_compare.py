@@ -13,7 +13,8 @@ import argparse
 import statistics
 import time
 
-from evmap.maps.app.compare import DEFAULT_RULES, run_comparison
+from evmap.maps.app.compare_args import DEFAULT_RULES
+from evmap.maps.app.compare_runner import run_comparison
 
 
 def timed(**kwargs):  # type: ignore[no-untyped-def]

@@ -29,7 +29,7 @@ from pathlib import Path
 import yaml
 
 from evmap import configs
-from evmap.sources.config import MAX_FRAME_ELEMENTS, MAX_FRAMES, MAX_SOURCES, MAX_STAGE_SOURCES
+from evmap.sources.config_model import MAX_FRAME_ELEMENTS, MAX_FRAMES, MAX_SOURCES, MAX_STAGE_SOURCES
 from evmap.sources.params import MAX_STRIPE_POINTS
 from evmap.sources.range_sensor import MAX_RANGE_RAYS
 from evmap.sources.sensor_kinds import MAX_SENSORS

@@ -3,7 +3,7 @@
 For every seed, ``--worlds`` worlds are generated with the detector fixed
 (:class:`evmap.sources.sim.worldgen.WorldGenParams` ``column_max_share`` 0 or 1, every
 other parameter at its default: tours of 3-6 poses, a quarter single-pose, facades,
-halls, clutter) and compared by :func:`evmap.maps.app.compare.run_comparison` under
+halls, clutter) and compared by :func:`evmap.maps.app.compare_runner.run_comparison` under
 Dempster's rule, every config on the same scans. Printed per config and detector,
 pooled over the segments of all worlds and seeds (``summary.md`` of ``evmap compare``
 defines each):
@@ -27,9 +27,9 @@ import argparse
 import statistics
 from collections import defaultdict
 
-from evmap.maps.app.compare import run_comparison
+from evmap.maps.app.compare_runner import run_comparison
 from evmap.sources.sim.scenario import parse_scenario
-from evmap.sources.sim.worldgen import WorldGenParams
+from evmap.sources.sim.worldgen_params import WorldGenParams
 
 DETECTORS = {"threshold": 0.0, "column_max": 1.0}
 """Detector -> the generator's ``column_max_share``."""

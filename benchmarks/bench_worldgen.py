@@ -3,7 +3,7 @@
 For ``--worlds`` worlds of the experiment ``--seed`` (as ``evmap compare`` draws them), prints the
 median generation time, the mix of detectors and tour lengths, and, by number of poses, the median
 CPU seconds per pose of one world in ``evmap compare`` under Dempster's rule
-(:func:`evmap.maps.app.compare.compare_world`: generation, sensing, fusion, metrics): a tour of six
+(:func:`evmap.maps.app.compare_runner.compare_world`: generation, sensing, fusion, metrics): a tour of six
 poses should cost about six single-pose runs.
 
     .venv/bin/python benchmarks/bench_worldgen.py [--worlds 40] [--seed 1]
@@ -16,7 +16,7 @@ import statistics
 import time
 from collections import Counter, defaultdict
 
-from evmap.maps.app.compare import compare_world
+from evmap.maps.app.compare_runner import compare_world
 from evmap.sources.sim.worldgen import generate_world, world_seed
 
 

@@ -15,7 +15,9 @@ from __future__ import annotations
 import argparse
 from importlib.resources import files
 
-from evmap.maps.app.compare import DEFAULT_RULES, Comparison, run_comparison
+from evmap.maps.app.compare_args import DEFAULT_RULES
+from evmap.maps.app.compare_runner import run_comparison
+from evmap.maps.app.compare_tables import Comparison
 from evmap.maps.app.run import report, run_scenario
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import load_scenario

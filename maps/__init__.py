@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap, new_map
-    from evmap.maps.map_file import MapFileError
+    from evmap.maps.map_format import MapFileError
     from evmap.maps.planner import Line, Point
 
 __all__ = ["BeliefMap", "Line", "MapFileError", "Point", "new_map"]
@@ -19,7 +19,7 @@ __all__ = ["BeliefMap", "Line", "MapFileError", "Point", "new_map"]
 _HOMES = {
     "BeliefMap": "evmap.maps.belief_map",
     "new_map": "evmap.maps.belief_map",
-    "MapFileError": "evmap.maps.map_file",
+    "MapFileError": "evmap.maps.map_format",
     "Line": "evmap.maps.planner",
     "Point": "evmap.maps.planner",
 }

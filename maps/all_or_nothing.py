@@ -5,6 +5,21 @@ segment store's rows, the open space's pieces, the ids counters and poses),
 logs the objects' changes (:class:`~evmap.maps.undo_log.UndoLog`) and, if the
 block raises, undoes them and puts the rest back. Inside an outer one it does
 nothing: the outer one decides.
+
+>>> from evidential import MassFunction
+>>> from evmap.maps import BeliefMap
+>>> bm = BeliefMap(["real", "noise"])
+>>> m = MassFunction(bm.frame, {"real": 1.0})
+>>> bm.add_point("A", (0, 0), "corner", m)
+>>> try:
+...     with bm.transaction():
+...         bm.add_point("B", (1, 0), "corner", m)
+...         bm.remove_point("A")
+...         raise RuntimeError("half-way")
+... except RuntimeError:
+...     pass
+>>> sorted(bm.graph.nodes)
+['A']
 """
 
 from __future__ import annotations

@@ -15,18 +15,17 @@ The graph's attributes are ``schema_version``, ``frame`` (element names),
 sonar open space as GeoJSON-like MultiPolygon coordinates), and for maps that
 fold observations ``config``, ``poses`` and ``next_id``.
 
-:class:`BeliefMap` is the data: the graph, its mutation and its ids, the open
-space in pieces, the raw segments (:attr:`BeliefMap.segments`) and spatial
-indexes kept up to date one change at a time (:meth:`BeliefMap.near`), each kept
-by a small object of its own module: the points and lines with their indexes,
-undo log, change journal and running masses (:mod:`~evmap.maps.map_objects`),
-the open space (:mod:`~evmap.maps.open_space_pieces`). Build and
-change the map through its methods; :attr:`BeliefMap.graph` is for reading, by
-algorithms written as plain functions of a graph. Around it, free functions:
-the pipeline (:mod:`evmap.maps.pipeline`, :meth:`~BeliefMap.update`), the
-planner's queries (:mod:`evmap.maps.planner`), the occupancy grid
-(:mod:`evmap.maps.occupancy`) and the map file (:mod:`evmap.maps.map_file`,
-``map.json`` of ``docs/SCENARIO.md``); the methods of the same names call them.
+:class:`BeliefMap` is the data: the graph, its mutation and its ids. What it
+keeps beside the graph is kept by objects of their own modules: the points and
+lines with their spatial indexes, undo log, change journal and running masses
+(:mod:`~evmap.maps.map_objects`), the open space in pieces
+(:mod:`~evmap.maps.open_space_pieces`), the raw segments
+(:mod:`~evmap.maps.segments`). Change the map through its methods;
+:attr:`BeliefMap.graph` is for reading, by algorithms written as plain functions
+of a graph. Its other methods are one-line calls of the free functions around
+it: the pipeline (:mod:`evmap.maps.pipeline`), the planner's queries
+(:mod:`evmap.maps.planner`), the occupancy grid (:mod:`evmap.maps.occupancy`)
+and the map file (:mod:`evmap.maps.map_file`, ``map.json`` of ``docs/SCENARIO.md``).
 """
 
 from __future__ import annotations
@@ -45,15 +44,17 @@ from evidential import RULES, Frame, MassFunction
 from evmap.maps import map_file, map_json, occupancy, planner
 from evmap.maps.all_or_nothing import all_or_nothing
 from evmap.maps.map_checks import check_extras
-from evmap.maps.map_file import GRAPH_KEYS, ID_PREFIXES, MapParts
+from evmap.maps.map_format import GRAPH_KEYS, ID_PREFIXES, SCHEMA_VERSION, MapParts
 from evmap.maps.map_objects import MapObjects
 from evmap.maps.observation import Observation
+from evmap.maps.occupancy import OccupancyParams
 from evmap.maps.open_space_pieces import OpenSpacePieces
 from evmap.maps.pipeline import PoseOutcome, fold_observation
 from evmap.maps.planner import Line, Point
 from evmap.maps.segments import SegmentStore
 from evmap.maps.spatial import Bounds
-from evmap.sources.config import Config, config_from_data
+from evmap.sources.config import config_from_data
+from evmap.sources.config_model import Config
 
 __all__ = ["BeliefMap", "new_map"]
 
@@ -104,7 +105,7 @@ class BeliefMap:
         check_extras(attrs, GRAPH_KEYS, "graph")
         self._frame = frame
         self._graph = nx.Graph(
-            schema_version=map_file.SCHEMA_VERSION,
+            schema_version=SCHEMA_VERSION,
             frame=list(frame.elements),
             rule=rule,
             open_space=map_json.geojson(shapely.MultiPolygon()),
@@ -112,7 +113,7 @@ class BeliefMap:
         )
         self._objects = MapObjects(self._graph, frame)
         self._lines = self._objects.lines  # id -> end points
-        self._space = OpenSpacePieces()
+        self._space = OpenSpacePieces(self._graph)
         self._config: Config | None = None
         self.segments = SegmentStore.empty(frame)
         """The raw LSL segments behind the lines (:class:`evmap.maps.segments.SegmentStore`)."""
@@ -212,23 +213,20 @@ class BeliefMap:
 
         Set it with a Polygon, a MultiPolygon, an empty geometry or None (that
         replaces it), or add to it with :meth:`add_open_space`; the union is
-        made when it is read, and :meth:`open_space_near` reads pieces near a box only.
+        made when it is read (:class:`~evmap.maps.open_space_pieces.OpenSpacePieces`), and
+        :meth:`open_space_near` reads pieces near a box only.
         """
-        if not self._space.is_made():
-            self._graph.graph["open_space"] = map_json.geojson(self._space.union())
         return self._space.union()
 
     @open_space.setter
     def open_space(self, geometry: shapely.Geometry | None) -> None:
-        geometry = map_json.as_multipolygon(geometry)
         self._space.replace(geometry)
-        self._graph.graph["open_space"] = map_json.geojson(geometry)
-        self._changed()
+        self._objects.changed()
 
     def add_open_space(self, geometry: shapely.Geometry) -> None:
         """Unite a (Multi)Polygon, one observation's open space say, with the map's open space."""
         self._space.add(geometry)
-        self._changed()
+        self._objects.changed()
 
     def open_space_near(self, bounds: Bounds) -> shapely.Geometry:
         """The open space within the box ``bounds``, and maybe some beyond it; costs what the box holds."""
@@ -238,16 +236,7 @@ class BeliefMap:
 
     def near(self, bounds: Bounds, what: str = "all") -> set[str]:
         """Ids of the ``"points"``, ``"lines"``, ``"obstacles"`` (lines and unidentified points) or ``"all"``
-        whose bounding boxes meet the box ``bounds`` (xmin, ymin, xmax, ymax).
-
-        >>> from evidential import MassFunction
-        >>> bm = BeliefMap(["real", "noise"])
-        >>> m = MassFunction(bm.frame, {"real": 1.0})
-        >>> bm.add_point("A", (0, 0), "corner", m); bm.add_point("B", (4, 0), "endpoint", m)
-        >>> bm.add_line("L1", "A", "B", m)
-        >>> sorted(bm.near((3.5, -0.5, 4.5, 0.5))), sorted(bm.near((3.5, -0.5, 4.5, 0.5), "lines"))
-        (['B', 'L1'], ['L1'])
-        """
+        whose bounding boxes meet the box ``bounds`` (xmin, ymin, xmax, ymax) (:mod:`evmap.maps.map_index`)."""
         return self._objects.index.near(bounds, what)
 
     def extent(self) -> Bounds:
@@ -309,20 +298,6 @@ class BeliefMap:
         segments, open space, ids and poses), then it is raised.
 
         :meth:`update` runs in one. Objects put back may come after the others in iteration order.
-
-        >>> from evidential import MassFunction
-        >>> bm = BeliefMap(["real", "noise"])
-        >>> m = MassFunction(bm.frame, {"real": 1.0})
-        >>> bm.add_point("A", (0, 0), "corner", m)
-        >>> try:
-        ...     with bm.transaction():
-        ...         bm.add_point("B", (1, 0), "corner", m)
-        ...         bm.remove_point("A")
-        ...         raise RuntimeError("half-way")
-        ... except RuntimeError:
-        ...     pass
-        >>> sorted(bm.graph.nodes)
-        ['A']
         """
         with all_or_nothing(self._objects, self._space, self.segments, self._graph):
             yield
@@ -366,19 +341,17 @@ class BeliefMap:
         return planner.is_segment_clear(self, a, b, clearance, min_belief, unknown)
 
     def occupancy_masses(
-        self, resolution: float = 0.05, params: occupancy.OccupancyParams | None = None
+        self, resolution: float = 0.05, params: OccupancyParams | None = None
     ) -> tuple[NDArray[np.float64], tuple[float, float]]:
         """:func:`evmap.maps.occupancy.occupancy_masses`: the evidential grid and its origin."""
         return occupancy.occupancy_masses(self, resolution, params)
 
-    def occupancy_grid(
-        self, resolution: float = 0.05, params: occupancy.OccupancyParams | None = None
-    ) -> NDArray[np.int8]:
+    def occupancy_grid(self, resolution: float = 0.05, params: OccupancyParams | None = None) -> NDArray[np.int8]:
         """:func:`evmap.maps.occupancy.occupancy_grid`: the ROS occupancy grid (``int8``)."""
         return occupancy.occupancy_grid(self, resolution, params)
 
     def save_ros_map(
-        self, path_stem: str | Path, resolution: float = 0.05, params: occupancy.OccupancyParams | None = None
+        self, path_stem: str | Path, resolution: float = 0.05, params: OccupancyParams | None = None
     ) -> tuple[Path, Path]:
         """:func:`evmap.maps.occupancy.save_ros_map`: ``STEM.pgm`` + ``STEM.yaml`` for ROS map_server."""
         return occupancy.save_ros_map(self, path_stem, resolution, params)
@@ -412,11 +385,6 @@ class BeliefMap:
                 bm.open_space = parts.open_space
             bm._objects.fill(parts.nodes, parts.ends, parts.edges)
             return bm
-
-    # ----------------------------------------------------------------- internals
-
-    def _changed(self, *ids: str) -> None:
-        self._objects.changed(*ids)
 
 
 def new_map(config: Config) -> BeliefMap:

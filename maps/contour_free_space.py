@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed
+from evmap.sources.geometry import crossings
 
 __all__ = ["RayParams", "RayTally", "ray_features", "ray_tally"]
 
@@ -101,10 +102,9 @@ def _crossings(
     a, b = a[pair], b[pair]
     e = b - a
     length = np.maximum(np.hypot(*e.T), 1e-12)
+    t, along = crossings(np.zeros(2), u, a, e)  # the crossing's range along the ray, its place on the segment
+    along = along * length  # in metres
     cross = u[:, 0] * e[:, 1] - u[:, 1] * e[:, 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (a[:, 0] * e[:, 1] - a[:, 1] * e[:, 0]) / cross  # range of the crossing along the ray
-        along = (a[:, 0] * u[:, 1] - a[:, 1] * u[:, 0]) / cross * length  # metres along the segment
     sin = np.abs(cross) / length
     margin = np.minimum(params.end_margin, length / 4)  # a short segment keeps the middle half of it
     inside = (np.abs(cross) > 1e-12) & (t > 0) & (along >= margin) & (along <= length - margin)

@@ -14,13 +14,13 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from evmap.maps import map_json
-from evmap.maps.map_file import POINT_KINDS
+from evmap.maps.map_format import POINT_KINDS
 
 __all__ = ["check_extras", "checked_history", "checked_kind"]
 
 
 def checked_kind(kind: str, id: str) -> str:
-    """``kind`` if it is a point kind (:data:`~evmap.maps.map_file.POINT_KINDS`), else a ValueError naming ``id``."""
+    """``kind`` if it is a point kind (:data:`~evmap.maps.map_format.POINT_KINDS`), else a ValueError naming ``id``."""
     if kind not in POINT_KINDS:
         raise ValueError(f"{id!r}: kind must be one of {list(POINT_KINDS)}, got {kind!r}")
     return kind

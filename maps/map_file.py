@@ -8,8 +8,8 @@ file and returns its :class:`MapParts`, from which
 :meth:`~evmap.maps.belief_map.BeliefMap.from_parts` builds the map. Every problem
 raises :class:`MapFileError` naming the file, the place (``nodes[3].xy``) and the problem.
 
-The layout's names and data are in :mod:`evmap.maps.map_format`, the checks in
-:mod:`evmap.maps.map_reader`; the public names of both are importable from here.
+The layout's names and data (:class:`MapFileError` among them) are in
+:mod:`evmap.maps.map_format`, the checks in :mod:`evmap.maps.map_reader`.
 """
 
 from __future__ import annotations
@@ -23,48 +23,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import orjson
 
-from evmap.maps import map_json
-from evmap.maps.map_format import (
-    CHECKSUM_KEY,
-    GRAPH_KEYS,
-    ID_PREFIXES,
-    LINE_KEYS,
-    LINE_KIND,
-    MAX_MAP_BYTES,
-    POINT_KEYS,
-    POINT_KINDS,
-    RELATIONS,
-    SCHEMA_VERSION,
-    TRUTHS,
-    MapFileError,
-    MapParts,
-)
+from evmap.maps import map_format, map_json
+from evmap.maps.atomic_file import write_atomic
+from evmap.maps.map_format import CHECKSUM_KEY, GRAPH_KEYS, SCHEMA_VERSION, MapFileError, MapParts
 from evmap.maps.map_reader import MapReader
-from evmap.maps.occupancy import write_atomic
 from evmap.maps.sensed import SENSED_KEY, sensed_json
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = [
-    "CHECKSUM_KEY",
-    "GRAPH_KEYS",
-    "ID_PREFIXES",
-    "LINE_KEYS",
-    "LINE_KIND",
-    "MAX_MAP_BYTES",
-    "POINT_KEYS",
-    "POINT_KINDS",
-    "RELATIONS",
-    "SCHEMA_VERSION",
-    "TRUTHS",
-    "MapFileError",
-    "MapParts",
-    "map_data",
-    "read_file",
-    "read_map",
-    "write_map",
-]
+__all__ = ["map_data", "read_file", "read_map", "write_map"]
 
 
 def map_data(bm: BeliefMap) -> dict[str, Any]:
@@ -132,11 +100,11 @@ def read_file(path: str | Path) -> MapParts:
         with open(path, "rb") as file:
             if not stat.S_ISREG(os.fstat(file.fileno()).st_mode):
                 raise MapFileError(f"{path}: not a regular file")
-            text = file.read(MAX_MAP_BYTES + 1)
+            text = file.read(map_format.MAX_MAP_BYTES + 1)
     except OSError as exc:
         raise MapFileError(f"{path}: cannot read file: {exc}") from None
-    if len(text) > MAX_MAP_BYTES:
-        raise MapFileError(f"{path}: larger than the limit of {MAX_MAP_BYTES} bytes for a map file")
+    if len(text) > map_format.MAX_MAP_BYTES:
+        raise MapFileError(f"{path}: larger than the limit of {map_format.MAX_MAP_BYTES} bytes for a map file")
     checked = _checksum_ok(text)
     with map_json.gc_paused():
         try:

@@ -1,8 +1,7 @@
 """The layout of ``map.json``: its schema versions, keys, values and limits, the checked parts of a file, its error.
 
-The data of :mod:`evmap.maps.map_file` (which writes and reads the file; import
-these names from there or from here) and of :mod:`evmap.maps.map_reader` (which
-checks a parsed file). The layout itself is documented in ``docs/SCENARIO.md``.
+The data of :mod:`evmap.maps.map_file` (which writes and reads the file) and of
+:mod:`evmap.maps.map_reader` (which checks a parsed file); import these names from here. The layout itself is documented in ``docs/SCENARIO.md``.
 """
 
 from __future__ import annotations

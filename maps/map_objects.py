@@ -30,7 +30,7 @@ from evidential import Frame, MassFunction, combine, conflict
 from evmap.maps import map_json, planner
 from evmap.maps.change_journal import ChangeJournal
 from evmap.maps.map_checks import check_extras, checked_history, checked_kind
-from evmap.maps.map_file import ID_PREFIXES, LINE_KEYS, LINE_KIND, POINT_KEYS
+from evmap.maps.map_format import ID_PREFIXES, LINE_KEYS, LINE_KIND, POINT_KEYS
 from evmap.maps.map_index import MapIndex
 from evmap.maps.planner import Line, Point
 from evmap.maps.running_mass import RunningMasses

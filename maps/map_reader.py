@@ -31,7 +31,7 @@ from evmap.maps.map_format import (
 from evmap.maps.segments import SegmentStore
 from evmap.maps.sensed import SENSED_KEY, sensed_from_json
 from evmap.sources.config import config_from_data
-from evmap.sources.evidence import MASS_TOLERANCE
+from evmap.sources.conformance import MASS_TOLERANCE
 from evmap.sources.loading import InputError
 
 __all__ = ["MapReader"]

@@ -22,7 +22,7 @@ from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally
 from evmap.maps.merging import related_pairs
 from evmap.maps.sensed import SENSED_FEATURES, keep_features, sensed_near
 from evmap.maps.sonar_forward import SonarForwardParams, free_ends, sonar_forward
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 from evmap.sources.params import MergeParams
 from evmap.sources.relation import relation
 

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from evmap.maps.noise import COMPUTED
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 from evmap.sources.laser import LaserParams, Rays, laser_segments
 from evmap.sources.logs.scan import LogRecord, RangeReadings
 from evmap.sources.params import SonarParams

@@ -30,8 +30,6 @@ highest y), so ``map_server`` and nav2 load it.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
@@ -42,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 from pydantic import BaseModel, ConfigDict, Field
 
 from evidential import Frame, combine_batch
+from evmap.maps.atomic_file import write_atomic
 from evmap.maps.free_space import free_space
 from evmap.maps.planner import state
 
@@ -61,7 +60,6 @@ __all__ = [
     "polygon_cells",
     "save_ros_map",
     "segment_cells",
-    "write_atomic",
     "write_ros_map",
 ]
 
@@ -297,24 +295,6 @@ def occupancy_from_masses(masses: NDArray[np.float64], params: OccupancyParams |
     known = (masses[..., _EITHER] <= params.ignorance_threshold) & (normal > 0)
     betp = (masses[..., _OCCUPIED] + 0.5 * masses[..., _EITHER]) / np.where(known, normal, 1.0)
     return np.where(known, np.rint(100 * np.clip(betp, 0, 1)), _UNKNOWN_VALUE[params.unknown]).astype(np.int8)
-
-
-def write_atomic(path: str | Path, data: bytes) -> None:
-    """Write a file atomically: a temporary file in the same directory, fsync, rename.
-
-    A reader sees the old file or the new one, never a part of it.
-    """
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def write_ros_map(

@@ -3,17 +3,21 @@
 Every observation's open space is a piece; the union of all of them is made
 only when it is read whole (:meth:`OpenSpacePieces.union`), and a spatial index
 of the pieces' boxes answers what is near a box at the cost of what is there
-(:meth:`OpenSpacePieces.near`).
+(:meth:`OpenSpacePieces.near`). The map's graph attribute ``open_space`` holds
+the union as GeoJSON-like coordinates, written whenever the union is made.
 
->>> import shapely
->>> space = OpenSpacePieces()
+>>> import networkx as nx, shapely
+>>> space = OpenSpacePieces(nx.Graph())
 >>> space.add(shapely.box(0, 0, 2, 1)); space.add(shapely.box(1, 0, 3, 1))
 >>> round(space.union().area, 6), len(space), space.near((5, 5, 6, 6)).is_empty
 (3.0, 2, True)
+>>> space.replace(shapely.box(0, 0, 1, 1)); space.graph.graph["open_space"]["coordinates"]
+[[[[1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.0, 0.0], [1.0, 0.0]]]]
 """
 
 from __future__ import annotations
 
+import networkx as nx
 import shapely
 
 from evmap.maps import map_json
@@ -23,9 +27,11 @@ __all__ = ["OpenSpacePieces"]
 
 
 class OpenSpacePieces:
-    """Pieces whose union is the open space, their boxes' index (made on first use) and their union (when read)."""
+    """Pieces whose union is the open space, their boxes' index (made on first use) and their union (when read),
+    mirrored in ``graph``'s attribute ``open_space``."""
 
-    def __init__(self) -> None:
+    def __init__(self, graph: nx.Graph) -> None:
+        self.graph = graph
         self._pieces: list[shapely.Geometry] = []
         self._index: SpatialIndex | None = None
         self._union: shapely.MultiPolygon | None = shapely.MultiPolygon()  # None: not made since the last change
@@ -38,17 +44,20 @@ class OpenSpacePieces:
         if self._union is None:
             union = shapely.union_all(self._pieces)
             self._union = union if isinstance(union, shapely.MultiPolygon) else map_json.as_multipolygon(union)
+            self.graph.graph["open_space"] = map_json.geojson(self._union)
         return self._union
 
     def is_made(self) -> bool:
         """Whether the union is made (reading it costs nothing)."""
         return self._union is not None
 
-    def replace(self, geometry: shapely.MultiPolygon) -> None:
-        """The open space is ``geometry`` (a MultiPolygon) and nothing else."""
+    def replace(self, geometry: shapely.Geometry | None) -> None:
+        """The open space is ``geometry`` (a Polygon, a MultiPolygon, an empty geometry or None) and nothing else."""
+        geometry = map_json.as_multipolygon(geometry)
         self._pieces = list(geometry.geoms)
         self._index = None
         self._union = geometry
+        self.graph.graph["open_space"] = map_json.geojson(geometry)
 
     def add(self, geometry: shapely.Geometry) -> None:
         """Unite a (Multi)Polygon with the open space."""

@@ -39,7 +39,7 @@ from evmap.maps.reinforcement import reinforce
 from evmap.maps.sensed import features_checkpoint, forget, remember
 from evmap.maps.simulated_sonar import check_sonar
 from evmap.maps.unidentified import add_unidentified, drop_explained
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 from evmap.sources.open_space import open_space
 from evmap.sources.rcd import Rcds, extract_rcds
 from evmap.sources.readings import SonarScan

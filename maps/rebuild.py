@@ -34,7 +34,7 @@ from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, surface_points_ne
 from evmap.maps.running_mass import NOISE_STAGE, evidence_records, running_of, with_running
 from evmap.maps.segments import CONSOLIDATE_POSES, SegmentStore
 from evmap.maps.sensed import kept_features
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps.merging import Merged
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap

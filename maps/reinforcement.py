@@ -15,7 +15,7 @@ import numpy as np
 
 from evidential import MassFunction
 from evmap.maps.simulated_sonar import SonarCheck
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap

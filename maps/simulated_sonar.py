@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps.matching import match_rcds
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 from evmap.sources.geometry import cast_rays
 from evmap.sources.rcd import Rcds, extract_rcds
 from evmap.sources.readings import SonarScan

@@ -33,7 +33,7 @@ from evidential import MassFunction
 from evmap.maps.free_space import FreeSpaceParams, contour_bound, surface_rays
 from evmap.maps.sensed import pose_sensed
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 from evmap.sources.geometry import point_segment_distances
 from evmap.sources.rcd import TYPE_IV, TYPE_NAMES
 

@@ -30,17 +30,17 @@ and no meaning in the order of keys. Its top-level keys:
     the parameters of the sensor models and of each stage, validated by the
     models of :mod:`evmap.sources.params`; a missing section takes the models' defaults.
 
-Config files are untrusted input. Limits: at most :data:`MAX_FRAMES` frames of at
-most :data:`MAX_FRAME_ELEMENTS` elements and :data:`MAX_ALIASES` aliases each,
-:data:`MAX_SOURCES` sources, :data:`MAX_STAGE_SOURCES` sources per stage, plus the
+Config files are untrusted input. Limits (:mod:`evmap.sources.config_model`): at most
+``MAX_FRAMES`` frames of at most ``MAX_FRAME_ELEMENTS`` elements and ``MAX_ALIASES`` aliases
+each, ``MAX_SOURCES`` sources, ``MAX_STAGE_SOURCES`` sources per stage, plus the
 per-source limits of :mod:`evmap.sources.evidence` and the file size limit of
 :mod:`evmap.sources.loading`. Every error is an :class:`~evmap.sources.loading.InputError`
 naming the file, the key path and the problem; nothing is returned unless the
 whole file is valid.
 
-The data (the file's structure, its limits, the built :class:`Config`) are in
-:mod:`evmap.sources.config_model`, the building and checking in
-:mod:`evmap.sources.config_build`; their public names are importable from here.
+The data (the file's structure, its limits, the built
+:class:`~evmap.sources.config_model.Config`) are in :mod:`evmap.sources.config_model`,
+the building and checking in :mod:`evmap.sources.config_build`; import their names from there.
 """
 
 from __future__ import annotations
@@ -50,45 +50,10 @@ from typing import Any
 
 from evmap import configs
 from evmap.sources.config_build import build_config
-from evmap.sources.config_model import (
-    MAX_ALIASES,
-    MAX_FRAME_ELEMENTS,
-    MAX_FRAMES,
-    MAX_SOURCES,
-    MAX_STAGE_SOURCES,
-    PARAMETER_SECTIONS,
-    PIPELINE_FEATURES,
-    STAGES,
-    Config,
-    ConfigFile,
-    Feature,
-    FrameSpec,
-    SensorsParams,
-    StagesSpec,
-)
+from evmap.sources.config_model import Config, ConfigFile
 from evmap.sources.loading import InputError, read_document, validate
 
-__all__ = [
-    "MAX_ALIASES",
-    "MAX_FRAMES",
-    "MAX_FRAME_ELEMENTS",
-    "MAX_SOURCES",
-    "MAX_STAGE_SOURCES",
-    "PACKAGED_CONFIGS",
-    "PARAMETER_SECTIONS",
-    "PIPELINE_FEATURES",
-    "STAGES",
-    "Config",
-    "ConfigFile",
-    "Feature",
-    "FrameSpec",
-    "SensorsParams",
-    "StagesSpec",
-    "check_simulated_run",
-    "config_from_data",
-    "config_path",
-    "load_config",
-]
+__all__ = ["PACKAGED_CONFIGS", "check_simulated_run", "config_from_data", "config_path", "load_config"]
 
 
 PACKAGED_CONFIGS = ("paper", "default")

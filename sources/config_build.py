@@ -26,7 +26,7 @@ from evmap.sources.config_model import (
 from evmap.sources.conformance import check_source
 from evmap.sources.evidence import KINDS, EvidenceSource, SpecError
 from evmap.sources.loading import Document, InputError, key_path, validate
-from evmap.sources.plugins import load_plugins, refusal
+from evmap.sources.plugins import load_plugins, refusal, sensor_kinds
 from evmap.sources.sensor_kinds import build_sensors
 
 __all__ = ["build_config"]
@@ -72,7 +72,9 @@ def _build(spec: ConfigFile, name: str, document: Document | None) -> Config:
     except ValueError as exc:
         raise SpecError(("rule",), str(exc)) from None
 
-    sensors = build_sensors(spec.extra_sensors, lambda model, data, at: validate(model, data, name, at, document))
+    sensors = build_sensors(
+        spec.extra_sensors, lambda model, data, at: validate(model, data, name, at, document), sensor_kinds()
+    )
     built: dict[str, EvidenceSource] = {}
     for source_name, data in spec.sources.items():
         at = ("sources", source_name)

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from evmap.sources.geometry import crossings
 from evmap.sources.logs.scan import LaserScan
 
 __all__ = ["ScanFit", "log_fit", "scan_fit"]
@@ -63,13 +64,10 @@ def scan_fit(scan: LaserScan, p: NDArray[np.float64], q: NDArray[np.float64]) ->
     returned = ~np.isnan(scan.ranges)
     b = scan.bearings[returned]
     d = np.column_stack([np.cos(b), np.sin(b)])  # (M, 2)
-    w = np.asarray(p, dtype=float).reshape(-1, 2) - scan.pose[:2]  # (N, 2) first ends from the sensor
-    e = np.asarray(q, dtype=float).reshape(-1, 2) - np.asarray(p, dtype=float).reshape(-1, 2)  # (N, 2)
-    denom = d[:, None, 0] * e[None, :, 1] - d[:, None, 1] * e[None, :, 0]  # d x e, (M, N)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (w[None, :, 0] * e[None, :, 1] - w[None, :, 1] * e[None, :, 0]) / denom  # range along the ray
-        s = (w[None, :, 0] * d[:, None, 1] - w[None, :, 1] * d[:, None, 0]) / denom  # position on the segment
-    on = (denom != 0) & (t > 0) & (s >= -SPAN_SLACK) & (s <= 1 + SPAN_SLACK)
+    p = np.asarray(p, dtype=float).reshape(-1, 2)
+    e = np.asarray(q, dtype=float).reshape(-1, 2) - p  # (N, 2)
+    t, s = crossings(scan.pose[:2], d[:, None], p[None], e[None])  # (M, N): range along the ray, place on the segment
+    on = (t > 0) & (s >= -SPAN_SLACK) & (s <= 1 + SPAN_SLACK)  # NaN where parallel: never on
     predicted = np.where(on, t, np.inf).min(axis=1, initial=np.inf)
     hit = np.isfinite(predicted)
     predicted = np.where(hit, predicted, np.nan)

@@ -42,9 +42,9 @@ import numpy as np
 from evidential import RULES, combine_batch
 from evidential.rules import register_rule
 from evmap.sources.evidence import SourceKind, register_kind
-from evmap.sources.sensor_kinds import SensorKind, register_sensor_kind
+from evmap.sources.sensor_kinds import SENSOR_KINDS, SensorKind, register_sensor_kind
 
-__all__ = ["GROUPS", "PLUGINS", "Plugin", "load_plugins", "origin_of", "refusal", "register_plugin"]
+__all__ = ["GROUPS", "PLUGINS", "Plugin", "load_plugins", "origin_of", "refusal", "register_plugin", "sensor_kinds"]
 
 GROUPS: tuple[str, ...] = ("evmap.rules", "evmap.source_kinds", "evmap.sensor_kinds")
 """The entry-point groups evmap reads."""
@@ -95,6 +95,19 @@ def _load(group: str, point: EntryPoint) -> Plugin:
     except Exception as exc:  # noqa: BLE001 - a broken plugin is reported, never fatal to evmap
         return dataclasses.replace(plugin, problem=f"{type(exc).__name__}: {exc}")
     return plugin
+
+
+def sensor_kinds() -> dict[str, SensorKind]:
+    """Every sensor kind: the built-in ones (:mod:`evmap.sources.sim.sensor_models`, which registers them with
+    their simulators) and those of installed plugins (loaded once, on first use).
+
+    >>> sorted(sensor_kinds())[:3]
+    ['contour_property', 'detector', 'range']
+    """
+    import evmap.sources.sim.sensor_models  # noqa: F401 - registers the built-in kinds
+
+    load_plugins()
+    return SENSOR_KINDS
 
 
 def register_plugin(group: str, name: str, obj: Any, origin: str) -> None:
@@ -160,7 +173,6 @@ def origin_of(group: str, name: str) -> str:
         rule = RULES[name]
         return "builtin" if rule.builtin else _ORIGINS.get((group, name), "registered from Python")
     from evmap.sources.evidence import KINDS
-    from evmap.sources.sensor_kinds import SENSOR_KINDS
 
     kinds: dict[str, Any] = KINDS if group == "evmap.source_kinds" else SENSOR_KINDS
     return str(kinds[name].origin)

@@ -156,7 +156,7 @@ class DeclaredSensor:
 def check_readings(kind: SensorKind, readings: Mapping[str, ArrayLike], sensor: str) -> dict[str, NDArray[Any]]:
     """The readings as float arrays of the kind's array form; refuse, naming the sensor and array, any other.
 
-    >>> from evmap.sources.sim.sensor_models import sensor_kinds
+    >>> from evmap.sources.plugins import sensor_kinds
     >>> check_readings(sensor_kinds()["detector"], {"pose": [0, 0, 0], "points": [[1, 2]]}, "radar")["points"].shape
     (1, 2)
     >>> check_readings(sensor_kinds()["detector"], {"pose": [0, 0]}, "radar")
@@ -220,14 +220,14 @@ def check_features(
     return out
 
 
-def build_sensors(sections: Mapping[str, Mapping[str, Any]], validate: Callable[..., Any]) -> dict[str, DeclaredSensor]:
-    """Build the ``extra_sensors`` of a config; ``validate(model, data, at)`` validates one section.
+def build_sensors(
+    sections: Mapping[str, Mapping[str, Any]], validate: Callable[..., Any], kinds: Mapping[str, SensorKind]
+) -> dict[str, DeclaredSensor]:
+    """Build the ``extra_sensors`` of a config; ``validate(model, data, at)`` validates one section; ``kinds`` are
+    the sensor kinds by name (:func:`evmap.sources.plugins.sensor_kinds`: built in, and of plugins).
 
     Raises :class:`~evmap.sources.evidence.SpecError` at the key path of a problem.
     """
-    from evmap.sources.sim.sensor_models import sensor_kinds  # the kinds and their simulators, plugins included
-
-    kinds = sensor_kinds()
     if len(sections) > MAX_SENSORS:
         raise SpecError(("extra_sensors",), f"{len(sections)} sensors, more than the limit of {MAX_SENSORS}")
     out: dict[str, DeclaredSensor] = {}

@@ -95,6 +95,15 @@ def test_map_parameters_are_checked():
     assert BeliefMap(["real", "noise"], "yager", config={"a": 1}).graph.graph["config"] == {"a": 1}
 
 
+def test_near_finds_the_objects_whose_boxes_meet_a_box():
+    bm = BeliefMap(FRAME)
+    bm.add_point("A", (0, 0), "corner", mass(1.0))
+    bm.add_point("B", (4, 0), "endpoint", mass(1.0))
+    bm.add_line("L1", "A", "B", mass(1.0))
+    assert sorted(bm.near((3.5, -0.5, 4.5, 0.5))) == ["B", "L1"]
+    assert sorted(bm.near((3.5, -0.5, 4.5, 0.5), "lines")) == ["L1"]
+
+
 def test_remove_line_then_point(bm):
     bm.remove_line("L1")
     assert "L1" not in bm and bm.graph.number_of_edges() == 0 and bm.lines(0.0) == []

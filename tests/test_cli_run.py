@@ -11,7 +11,7 @@ from evidential import RULES
 from evmap import configs
 from evmap.maps.app.cli import main
 from evmap.maps.app.figures import FIGURE_FILES
-from evmap.maps.app.staging import MARKER
+from evmap.maps.app.output_layout import MARKER
 
 SCENARIOS = Path(__file__).parent / "scenarios"
 SMALL = str(SCENARIOS / "pipeline_small.yaml")

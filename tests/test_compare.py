@@ -2,27 +2,20 @@
 
 from __future__ import annotations
 
-import argparse
 import csv
 
 import numpy as np
 import pytest
 import shapely
 
-from evmap.maps.app.compare import (
-    COLUMNS,
-    METRICS,
-    add_compare_parser,
-    fuse_rules,
-    run_comparison,
-    visible_glass,
-    world_metrics,
-)
+from evmap.maps.app.cli import build_parser
+from evmap.maps.app.compare_metrics import COLUMNS, METRICS, fuse_rules, visible_glass, world_metrics
+from evmap.maps.app.compare_runner import run_comparison
 from evmap.maps.noise import noise_evidence
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import parse_scenario
 from evmap.sources.sim.world import World
-from evmap.sources.sim.worldgen import WorldGenParams
+from evmap.sources.sim.worldgen_params import WorldGenParams
 
 RULES = ["dempster", "yager"]
 ONE_POSE = WorldGenParams(single_pose_share=1)
@@ -163,8 +156,7 @@ robot:
 
 
 def test_compare_command_writes_the_contract_files(tmp_path, capsys):
-    parser = argparse.ArgumentParser(prog="evmap")
-    add_compare_parser(parser.add_subparsers())
+    parser = build_parser()
     out = tmp_path / "cmp"
     argv = [
         "compare",

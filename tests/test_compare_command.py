@@ -14,10 +14,13 @@ import numpy as np
 import pytest
 
 from evmap.maps.app.cli import main
-from evmap.maps.app.compare import COLUMNS, METRICS, SUMMARY_COLUMNS, iter_results, run_comparison, write_comparison
+from evmap.maps.app.compare import write_comparison
+from evmap.maps.app.compare_metrics import COLUMNS, METRICS
 from evmap.maps.app.compare_plots import PLOT_FILES
-from evmap.maps.app.staging import MARKER
-from evmap.sources.sim.worldgen import WorldGenParams
+from evmap.maps.app.compare_runner import iter_results, run_comparison
+from evmap.maps.app.compare_tables import SUMMARY_COLUMNS
+from evmap.maps.app.output_layout import MARKER
+from evmap.sources.sim.worldgen_params import WorldGenParams
 
 ONE_POSE = WorldGenParams(single_pose_share=1)
 """Single-pose worlds: the properties tested here do not depend on the tours, which cost several times more."""

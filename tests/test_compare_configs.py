@@ -9,7 +9,6 @@ import pytest
 import shapely
 
 from evmap.maps.app.cli import main
-from evmap.maps.app.compare import fuse_rules, run_comparison
 from evmap.maps.app.compare_configs import ABLATION, config_names, resolve_config
 from evmap.maps.app.compare_hazards import (
     GRID_RESOLUTION,
@@ -20,10 +19,12 @@ from evmap.maps.app.compare_hazards import (
     spurious_unidentified,
     stripe_seen,
 )
+from evmap.maps.app.compare_metrics import fuse_rules
+from evmap.maps.app.compare_runner import run_comparison
 from evmap.maps.occupancy import FREE_MAX, occupancy_from_masses, occupancy_masses
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import default_scenario, parse_scenario
-from evmap.sources.sim.worldgen import WorldGenParams
+from evmap.sources.sim.worldgen_params import WorldGenParams
 
 ROOM_YAML = """
 version: 1

@@ -11,7 +11,8 @@ import yaml
 
 from evidential import RULES, Frame
 from evmap import configs
-from evmap.sources.config import MAX_FRAME_ELEMENTS, MAX_SOURCES, STAGES, load_config
+from evmap.sources.config import load_config
+from evmap.sources.config_model import MAX_FRAME_ELEMENTS, MAX_SOURCES, STAGES
 from evmap.sources.evidence import MAX_BREAK_POINTS, MAX_CATEGORIES, MAX_TABLE_CELLS
 from evmap.sources.loading import InputError
 

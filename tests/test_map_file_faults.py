@@ -7,7 +7,7 @@ import os
 import numpy as np
 import pytest
 
-from evmap.maps import BeliefMap, MapFileError, map_file, new_map
+from evmap.maps import BeliefMap, MapFileError, map_format, new_map
 from evmap.maps.observation import observe
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import default_scenario
@@ -32,7 +32,7 @@ def rewrite(saved, tmp_path, change) -> os.PathLike:
     path = tmp_path / "map.json"
     text = json.dumps(data, separators=(",", ":")).encode()
     digest = hashlib.sha256(text).hexdigest().encode()
-    path.write_bytes(text[:-1] + b"," + map_file.CHECKSUM_KEY + digest + b'"}')
+    path.write_bytes(text[:-1] + b"," + map_format.CHECKSUM_KEY + digest + b'"}')
     return path
 
 
@@ -88,7 +88,7 @@ def test_the_checksum_is_required_and_a_hand_edit_is_caught(saved, tmp_path):
 
 
 def test_size_limit_and_files_that_are_not_regular(saved, tmp_path, monkeypatch):
-    monkeypatch.setattr(map_file, "MAX_MAP_BYTES", 1000)
+    monkeypatch.setattr(map_format, "MAX_MAP_BYTES", 1000)
     with pytest.raises(MapFileError, match="larger than the limit of 1000 bytes"):
         BeliefMap.load(saved)
     monkeypatch.undo()

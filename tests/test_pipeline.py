@@ -18,7 +18,7 @@ import shapely
 from evmap import configs
 from evmap.maps import BeliefMap, new_map
 from evmap.maps.app.run import Run, report, run_scenario, segment_records
-from evmap.maps.map_file import POINT_KINDS
+from evmap.maps.map_format import POINT_KINDS
 from evmap.maps.noise import noise_evidence
 from evmap.maps.observation import observe
 from evmap.sources.config import load_config

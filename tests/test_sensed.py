@@ -9,7 +9,8 @@ import pytest
 
 from evmap import configs
 from evmap.maps import BeliefMap, new_map
-from evmap.maps.map_file import MapFileError, map_data, read_map
+from evmap.maps.map_file import map_data, read_map
+from evmap.maps.map_format import MapFileError
 from evmap.maps.observation import observe
 from evmap.maps.sensed import SENSED_KEY, remember, sensed, sensed_near
 from evmap.sources.config import load_config

@@ -12,12 +12,13 @@ from evmap.maps.observation import observe
 from evmap.sources.config import config_from_data, load_config
 from evmap.sources.loading import InputError
 from evmap.sources.open_space import open_space
+from evmap.sources.plugins import sensor_kinds
 from evmap.sources.rcd import extract_rcds
 from evmap.sources.relation import relation
 from evmap.sources.sensor_kinds import SENSOR_KINDS, features_from_arrays, read_readings
 from evmap.sources.sim.lsl import observe_lsl
 from evmap.sources.sim.scenario import default_scenario
-from evmap.sources.sim.sensor_models import sensor_kinds, sensor_rng
+from evmap.sources.sim.sensor_models import sensor_rng
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World
 from evmap.sources.sim.worldgen import generate_world

@@ -14,7 +14,8 @@ import pytest
 
 from evmap.maps.app import staging as staging_module
 from evmap.maps.app.cli import main
-from evmap.maps.app.staging import MARKER, RUN_LAYOUT, OutputError, claim_output
+from evmap.maps.app.output_layout import MARKER, RUN_LAYOUT, OutputError
+from evmap.maps.app.staging import claim_output
 
 SMALL = str(Path(__file__).parent / "scenarios" / "pipeline_small.yaml")
 

@@ -8,7 +8,8 @@ import shapely
 
 from evmap.sources.sim.scenario import parse_scenario
 from evmap.sources.sim.world import World, visible
-from evmap.sources.sim.worldgen import WorldGenParams, generate_world, scenario_yaml, wall_segment_count, world_seed
+from evmap.sources.sim.worldgen import generate_world, scenario_yaml, wall_segment_count, world_seed
+from evmap.sources.sim.worldgen_params import WorldGenParams
 
 SEEDS = range(24)
 

@@ -20,8 +20,9 @@ from evmap.sources.sim.scenario import (
 )
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World, visible
-from evmap.sources.sim.worldgen import WorldGenParams, generate_world, scenario_yaml, world_seed
+from evmap.sources.sim.worldgen import generate_world, scenario_yaml, world_seed
 from evmap.sources.sim.worldgen_furniture import CLUTTER_GAP
+from evmap.sources.sim.worldgen_params import WorldGenParams
 
 PARAMS = WorldGenParams()
 

@@ -13,8 +13,9 @@ from pathlib import Path
 from typing import Any
 
 from evmap.maps.app.figures import write_figures
+from evmap.maps.app.output_layout import RUN_LAYOUT, Staging
 from evmap.maps.app.run import Run, report, segment_records
-from evmap.maps.app.staging import RUN_LAYOUT, Staging, claim_output, write_text_atomic
+from evmap.maps.app.staging import claim_output, write_text_atomic
 
 __all__ = ["prepare_out", "write_artefacts", "write_staged"]
 

@@ -153,7 +153,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     log.set_defaults(handler=log_command)
 
-    add_compare_parser(commands)
+    add_compare_parser(commands, compare_command)
 
     config = commands.add_parser("config", help="check a config file, explain its evidence sources")
     config.set_defaults(handler=lambda args: _usage(config))
@@ -203,8 +203,7 @@ def list_rules(args: argparse.Namespace) -> int:
 def list_sources(args: argparse.Namespace) -> int:
     """``evmap sources``: every kind of evidence source and of sensor, where it comes from; refused plugins."""
     from evmap.sources.evidence import KINDS
-    from evmap.sources.plugins import load_plugins, origin_of
-    from evmap.sources.sim.sensor_models import sensor_kinds
+    from evmap.sources.plugins import load_plugins, origin_of, sensor_kinds
 
     groups = ("evmap.source_kinds", "evmap.sensor_kinds")
     refused = [p for p in load_plugins() if p.group in groups and p.problem]
@@ -221,6 +220,13 @@ def list_sources(args: argparse.Namespace) -> int:
     out += [f"refused: {p.group.removeprefix('evmap.')} {p.name} from {p.origin}: {p.problem}" for p in refused]
     print("\n".join(out))
     return 0
+
+
+def compare_command(args: argparse.Namespace) -> int:
+    """``evmap compare`` (:func:`evmap.maps.app.compare.compare_command`)."""
+    from evmap.maps.app.compare import compare_command
+
+    return compare_command(args)
 
 
 def run_command(args: argparse.Namespace) -> int:

@@ -6,8 +6,9 @@ on the same scans, the figures of each map), :mod:`~evmap.maps.app.compare_hazar
 (what a planner would trip on),
 :mod:`~evmap.maps.app.compare_runner` (many worlds, in parallel with Dask),
 :mod:`~evmap.maps.app.compare_tables` (the running summary, CSV and Markdown),
-:mod:`~evmap.maps.app.compare_plots`. This module is the command (its arguments
-and :func:`compare_command`) and re-exports what the parts offer.
+:mod:`~evmap.maps.app.compare_plots`, and the command's arguments
+(:mod:`~evmap.maps.app.compare_args`). This module is the command
+(:func:`compare_command`); import the parts' names from the parts.
 
 The command claims ``--out`` first (:mod:`evmap.maps.app.staging`), then streams:
 each world's rows go to ``worlds.csv`` and its scenario to ``worlds/`` as it is
@@ -21,35 +22,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from evmap.maps.app.compare_args import DEFAULT_RULES, add_compare_parser
-from evmap.maps.app.compare_metrics import (
-    BELIEF_BINS,
-    COLUMNS,
-    COUNTS,
-    DEFINITIONS,
-    GLASS_RADIUS,
-    MAP_ERROR_STEP,
-    METRICS,
-    WorldResult,
-    fuse_rules,
-    line_beliefs,
-    map_error,
-    visible_glass,
-    world_metrics,
-)
 from evmap.maps.app.compare_plots import write_plots
-from evmap.maps.app.compare_runner import (
-    LOCAL_SCHEDULERS,
-    MAX_WORLDS,
-    SYNCHRONOUS_BELOW,
-    check_rules,
-    check_run,
-    compare_world,
-    iter_results,
-    run_comparison,
-)
+from evmap.maps.app.compare_runner import check_rules, check_run, iter_results
 from evmap.maps.app.compare_tables import (
-    SUMMARY_COLUMNS,
     WORLD_COLUMNS,
     Comparison,
     Tally,
@@ -58,38 +33,10 @@ from evmap.maps.app.compare_tables import (
     write_csv,
     write_summary,
 )
-from evmap.maps.app.staging import COMPARE_LAYOUT, MIN_FREE_BYTES, claim_output
+from evmap.maps.app.output_layout import COMPARE_LAYOUT, MIN_FREE_BYTES
+from evmap.maps.app.staging import claim_output
 
-__all__ = [
-    "BELIEF_BINS",
-    "BYTES_PER_WORLD",
-    "COLUMNS",
-    "COUNTS",
-    "DEFAULT_RULES",
-    "DEFINITIONS",
-    "GLASS_RADIUS",
-    "LOCAL_SCHEDULERS",
-    "MAP_ERROR_STEP",
-    "MAX_WORLDS",
-    "METRICS",
-    "SUMMARY_COLUMNS",
-    "SYNCHRONOUS_BELOW",
-    "Comparison",
-    "WorldResult",
-    "add_compare_parser",
-    "check_rules",
-    "compare_command",
-    "compare_world",
-    "fuse_rules",
-    "iter_results",
-    "line_beliefs",
-    "map_error",
-    "run_comparison",
-    "summary_markdown",
-    "visible_glass",
-    "world_metrics",
-    "write_comparison",
-]
+__all__ = ["BYTES_PER_WORLD", "compare_command", "write_comparison"]
 
 BYTES_PER_WORLD = 8192
 """Disk space a world's rows and scenario take at most, for the free-space check before the run."""

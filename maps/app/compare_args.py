@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 
-__all__ = ["DEFAULT_RULES", "SYNCHRONOUS_BELOW", "add_compare_parser", "run_compare"]
+__all__ = ["DEFAULT_RULES", "SYNCHRONOUS_BELOW", "add_compare_parser"]
 
 DEFAULT_RULES = ("dempster", "yager", "dubois_prade", "pcr6", "murphy", "bayes")
 """The rules ``evmap compare`` runs when ``--rules`` is not given."""
@@ -13,20 +14,16 @@ SYNCHRONOUS_BELOW = 8
 """With the default scheduler, fewer worlds than this run in this process (a local cluster takes seconds to start)."""
 
 
-def run_compare(args: argparse.Namespace) -> int:
-    """The handler of ``compare``: :func:`evmap.maps.app.compare.compare_command`, imported when it runs."""
-    from evmap.maps.app.compare import compare_command
-
-    return compare_command(args)
-
-
-def add_compare_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``compare`` on ``subparsers`` (``evmap``'s commands); its handler is :func:`run_compare`.
+def add_compare_parser(
+    subparsers: argparse._SubParsersAction, handler: Callable[[argparse.Namespace], int]
+) -> argparse.ArgumentParser:
+    """Register ``compare`` on ``subparsers`` (``evmap``'s commands) with its ``handler`` (the command line's
+    :func:`evmap.maps.app.cli.compare_command`, which imports the comparison when it runs).
 
     >>> parser = argparse.ArgumentParser(prog="evmap")
-    >>> _ = add_compare_parser(parser.add_subparsers())
+    >>> _ = add_compare_parser(parser.add_subparsers(), handler=print)
     >>> args = parser.parse_args(["compare", "--out", "x", "--worlds", "3"])
-    >>> args.handler is run_compare, args.rules, args.worlds, args.seed
+    >>> args.handler is print, args.rules, args.worlds, args.seed
     (True, 'dempster,yager,dubois_prade,pcr6,murphy,bayes', 3, 0)
     """
     compare = subparsers.add_parser(
@@ -62,5 +59,5 @@ def add_compare_parser(subparsers: argparse._SubParsersAction) -> argparse.Argum
     )
     compare.add_argument("--workers", type=int, help="processes of the local cluster (default: one per CPU)")
     compare.add_argument("--quiet", action="store_true", help="no progress bar")
-    compare.set_defaults(handler=run_compare)
+    compare.set_defaults(handler=handler)
     return compare

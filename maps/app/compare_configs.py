@@ -26,7 +26,8 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
-from evmap.sources.config import Config, config_from_data, load_config
+from evmap.sources.config import config_from_data, load_config
+from evmap.sources.config_model import Config
 
 __all__ = ["ABLATION", "NEW_SOURCES", "config_names", "resolve_config", "sensing_key"]
 

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from evmap.maps.belief_map import BeliefMap
 from evmap.maps.occupancy import FREE_MAX, occupancy_from_masses, occupancy_masses
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 from evmap.sources.geometry import cast_rays, point_segment_distances
 from evmap.sources.sim.sightings import seen_twice
 from evmap.sources.sim.surfaces import Surfaces

@@ -44,7 +44,7 @@ from evmap.maps.app.metrics import share
 from evmap.maps.app.run import Run
 from evmap.maps.observation import observe
 from evmap.maps.pipeline import fold_observation
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 from evmap.sources.geometry import cast_rays, perpendicular_feet, point_segment_distances
 from evmap.sources.sim.scenario import Scenario
 from evmap.sources.sim.surfaces import Surfaces

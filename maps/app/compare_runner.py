@@ -38,7 +38,8 @@ from evmap.maps.app.compare_hazards import stripe_seen, sunlight_seen_twice
 from evmap.maps.app.compare_metrics import WorldResult, belief_histograms, fuse_configs, visible_glass, world_metrics
 from evmap.maps.app.compare_tables import Comparison, Tally
 from evmap.sources.plugins import load_plugins, refusal
-from evmap.sources.sim.worldgen import WorldGenParams, generate_world, scenario_yaml, world_seed
+from evmap.sources.sim.worldgen import generate_world, scenario_yaml, world_seed
+from evmap.sources.sim.worldgen_params import WorldGenParams
 
 __all__ = [
     "CONNECT_TIMEOUT",
@@ -46,7 +47,6 @@ __all__ = [
     "MAX_BATCH",
     "MAX_IN_FLIGHT_PER_WORKER",
     "MAX_WORLDS",
-    "SYNCHRONOUS_BELOW",
     "batch_size",
     "check_rules",
     "compare_batch",

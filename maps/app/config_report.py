@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 from pydantic import BaseModel
 
 from evidential import Frame, TotalConflictError, combine_batch
-from evmap.sources.config import PARAMETER_SECTIONS, Config, SensorsParams
+from evmap.sources.config_model import PARAMETER_SECTIONS, Config, SensorsParams
 
 __all__ = ["MAX_EXPLAIN_ROWS", "describe_config", "explain_value"]
 

@@ -37,7 +37,7 @@ import numpy as np
 from evmap.maps import new_map
 from evmap.maps.app.run import LogSummary, Run
 from evmap.maps.observation import observation_from_log
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 from evmap.sources.laser import LaserParams
 from evmap.sources.line_fit import log_fit, scan_fit
 from evmap.sources.logs import LogRecord, open_log

@@ -20,7 +20,7 @@ from evmap.maps.belief_map import BeliefMap
 from evmap.maps.observation import Observation, observe
 from evmap.maps.pipeline import PoseOutcome
 from evmap.maps.segments import SegmentStore
-from evmap.sources.config import Config
+from evmap.sources.config_model import Config
 from evmap.sources.sim.scenario import Scenario
 from evmap.sources.sim.world import World
 
@@ -98,8 +98,6 @@ def report(run: Run) -> dict[str, Any]:
     store: SegmentStore = run.map.segments
     noise = store.truth == "noise"
     real = store.truth == "real"
-    bm = run.map
-    kinds = [d["kind"] for _, d in bm.graph.nodes(data=True)]
     return {
         "scenario": run.world.name,
         "rule": run.config.rule,
@@ -109,12 +107,7 @@ def report(run: Run) -> dict[str, Any]:
         "noise_eliminated": int((store.eliminated & noise).sum()),
         "real_eliminated": int((store.eliminated & real).sum()),
         "lines_before_merge": int((~store.eliminated).sum()),
-        "lines_after_merge": bm.graph.number_of_edges(),
-        "corners": kinds.count("corner"),
-        "rcds_actual": sum(len(o.actual) for o in run.outcomes),
-        "rcds_simulated": sum(len(o.predicted) for o in run.outcomes),
-        "rcds_matched": sum(len(o.matched[0]) for o in run.outcomes),
-        "unidentified": kinds.count("unidentified"),
+        **_map_counts(run),
         "noise_recall": share(store.eliminated & noise, noise),
         "real_loss": share(store.eliminated & real, real),
         "seconds": dict(run.seconds),
@@ -146,12 +139,24 @@ def segment_records(run: Run) -> list[dict[str, Any]]:
     ]
 
 
+def _map_counts(run: Run) -> dict[str, int]:
+    """The final map's lines, corners and unidentified objects, and the RCDs of its updates (both reports)."""
+    g = run.map.graph
+    kinds = [kind for _, kind in g.nodes(data="kind")]
+    return {
+        "lines_after_merge": g.number_of_edges(),
+        "corners": kinds.count("corner"),
+        "rcds_actual": sum(len(o.actual) for o in run.outcomes),
+        "rcds_simulated": sum(len(o.predicted) for o in run.outcomes),
+        "rcds_matched": sum(len(o.matched[0]) for o in run.outcomes),
+        "unidentified": kinds.count("unidentified"),
+    }
+
+
 def _log_report(run: Run, log: LogSummary) -> dict[str, Any]:
     """``report.json`` of a run over a robot log: no ground truth, the line fit, the sonar's provenance."""
     store: SegmentStore = run.map.segments
-    bm = run.map
     raw = store.role != "support"
-    kinds = [d["kind"] for _, d in bm.graph.nodes(data=True)]
     return {
         "log": log.source,
         "rule": run.config.rule,
@@ -164,12 +169,7 @@ def _log_report(run: Run, log: LogSummary) -> dict[str, Any]:
         "real_eliminated": None,
         "eliminated": int((store.eliminated & raw).sum()),
         "lines_before_merge": int((~store.eliminated & raw).sum()),
-        "lines_after_merge": bm.graph.number_of_edges(),
-        "corners": kinds.count("corner"),
-        "rcds_actual": sum(len(o.actual) for o in run.outcomes),
-        "rcds_simulated": sum(len(o.predicted) for o in run.outcomes),
-        "rcds_matched": sum(len(o.matched[0]) for o in run.outcomes),
-        "unidentified": kinds.count("unidentified"),
+        **_map_counts(run),
         "noise_recall": None,
         "real_loss": None,
         "line_fit": {"coverage_mean": log.coverage_mean, "rms_error_median": log.rms_error_median},

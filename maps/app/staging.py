@@ -27,7 +27,8 @@ Rules
   made by ``mkdtemp``/``mkstemp`` (0700/0600).
 
 The data (marker, layouts, :class:`Staging`, :class:`OutputError`) are in
-:mod:`evmap.maps.app.output_layout`, the lock in :mod:`evmap.maps.app.output_lock`.
+:mod:`evmap.maps.app.output_layout` (import them from there), the lock in
+:mod:`evmap.maps.app.output_lock`.
 """
 
 from __future__ import annotations
@@ -54,19 +55,9 @@ from evmap.maps.app.output_layout import (
     Staging,
 )
 from evmap.maps.app.output_lock import lock_output, process_alive
+from evmap.maps.atomic_file import write_atomic
 
-__all__ = [
-    "COMPARE_LAYOUT",
-    "MARKER",
-    "MIN_FREE_BYTES",
-    "RUN_LAYOUT",
-    "Layout",
-    "OutputError",
-    "Staging",
-    "claim_output",
-    "owned_entries",
-    "write_text_atomic",
-]
+__all__ = ["claim_output", "owned_entries", "write_text_atomic"]
 
 
 def _read_umask() -> int:
@@ -177,16 +168,9 @@ def owned_entries(directory: Path, layout: Layout) -> tuple[list[str], list[str]
 
 
 def write_text_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename, with the umask's permissions."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.chmod(tmp, 0o666 & ~_UMASK)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """Write ``text`` (UTF-8) to ``path`` through a temporary file and a rename, with the umask's permissions
+    (:func:`evmap.maps.atomic_file.write_atomic`; not synced: the staging directory is renamed into place whole)."""
+    write_atomic(path, text.encode("utf-8"), mode=0o666 & ~_UMASK, sync=False)
 
 
 # --------------------------------------------------------------------- checks

@@ -46,7 +46,6 @@ __all__ = [
     "BUILTIN_SENSOR_KINDS",
     "SENSOR_STREAM",
     "materials",
-    "sensor_kinds",
     "sensor_rng",
     "simulate_contour",
     "simulate_detector",
@@ -195,14 +194,6 @@ def simulate_features(
         readings = sensor.kind.simulate(world, pose_index, sensor.spec, sensor_rng(world, pose_index, name), lsl)
         out.update(sensor.features(readings, lsl.p, lsl.q))
     return out
-
-
-def sensor_kinds() -> dict[str, SensorKind]:
-    """Every sensor kind: the built-in ones and those of installed plugins (loaded once, on first use)."""
-    from evmap.sources.plugins import load_plugins
-
-    load_plugins()
-    return SENSOR_KINDS
 
 
 BUILTIN_SENSOR_KINDS: tuple[SensorKind, ...] = (

@@ -52,7 +52,7 @@ from evmap.sources.sim.worldgen_params import WorldGenParams
 from evmap.sources.sim.worldgen_plan import floor_plan
 from evmap.sources.sim.worldgen_tour import tour
 
-__all__ = ["WorldGenParams", "generate_world", "scenario_yaml", "wall_segment_count", "world_seed"]
+__all__ = ["generate_world", "scenario_yaml", "wall_segment_count", "world_seed"]
 
 
 def world_seed(seed: int, index: int) -> int:
