@@ -115,6 +115,7 @@ class BeliefMap:
         self._lines = self._objects.lines  # id -> end points
         self._space = OpenSpacePieces(self._graph)
         self._config: Config | None = None
+        self._vacuous = MassFunction(frame, {frame.full: 1.0})  # a value: one serves every vacuous point
         self.segments = SegmentStore.empty(frame)
         """The raw LSL segments behind the lines (:class:`evmap.maps.segments.SegmentStore`)."""
 
@@ -203,7 +204,7 @@ class BeliefMap:
 
     def vacuous(self) -> MassFunction:
         """The vacuous mass function over the map's frame (all mass on the whole frame)."""
-        return MassFunction(self._frame, {self._frame.full: 1.0})
+        return self._vacuous
 
     # ----------------------------------------------------------------- open space
 

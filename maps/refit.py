@@ -11,6 +11,7 @@ query per end (:func:`surface_points_near`) and tested all at once by numpy.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -136,6 +137,7 @@ def end_moves(
     at: dict[str, list[int]] = {}
     for i, (_, node) in enumerate(near.pairs):
         at.setdefault(node, []).append(i)
+    corner_at: dict[str, tuple[float, float] | None] = {}  # each corner's new place, None if it would change
     moves: dict[str, list[tuple[str, tuple[float, float]]] | None] = {}
     for k, lid in enumerate(lids):
         found: list[tuple[str, tuple[float, float]]] | None = []
@@ -145,31 +147,38 @@ def end_moves(
             if kind == "endpoint" and not meets:
                 end = ends[2 * k + e]
                 found.append((node, (float(end[0]), float(end[1]))))
-            elif (
-                kind == "corner"
-                and meets
-                and meets <= set(at.get(node, ()))
-                and _linked(near, at[node], g.degree(node), reach, cos_max)
-            ):
-                mid = near.ends[at[node]].mean(axis=0)
-                found.append((node, (float(mid[0]), float(mid[1]))))
-            else:
-                found = None
-                break
+                continue
+            if kind == "corner" and meets and meets <= set(at.get(node, ())):
+                if node not in corner_at:
+                    corner_at[node] = _corner_place(near, at[node], g.degree(node), reach, cos_max)
+                if corner_at[node] is not None:
+                    found.append((node, corner_at[node]))
+                    continue
+            found = None
+            break
         moves[lid] = found
     return moves
 
 
-def _linked(near: NearEnds, rows: list[int], degree: int, reach: float, cos_max: float) -> bool:
-    """Whether the ends ``rows`` of ``near`` (one per line, ``degree`` of them: every line of their point)
-    are linked into one set, as corners link ends."""
+def _corner_place(
+    near: NearEnds, rows: list[int], degree: int, reach: float, cos_max: float
+) -> tuple[float, float] | None:
+    """The mean of the ends ``rows`` of ``near`` if they are the ends of all ``degree`` lines of their point,
+    one each, linked into one set as corners link ends; else None."""
     lines = [near.pairs[i][0] for i in rows]
     if len(rows) != degree or len(set(lines)) != len(lines):
-        return False
-    xy, u = near.ends[rows], near.u[rows]
-    link = (np.hypot(*(xy[:, None] - xy[None]).transpose(2, 0, 1)) <= reach) & (np.abs(u @ u.T) <= cos_max)
-    reached = np.zeros(len(rows), dtype=bool)
-    reached[0] = True
-    for _ in range(len(rows)):
-        reached |= link[reached].any(axis=0)
-    return bool(reached.all())
+        return None
+    xy, u = near.ends[rows].tolist(), near.u[rows].tolist()
+    reached, todo = {0}, [0]
+    while todo:  # single linkage from the first end (a handful of ends: plain Python)
+        a = todo.pop()
+        for b in range(len(rows)):
+            if b not in reached and (
+                math.hypot(xy[a][0] - xy[b][0], xy[a][1] - xy[b][1]) <= reach
+                and abs(u[a][0] * u[b][0] + u[a][1] * u[b][1]) <= cos_max
+            ):
+                reached.add(b)
+                todo.append(b)
+    if len(reached) < len(rows):
+        return None
+    return sum(x for x, _ in xy) / len(xy), sum(y for _, y in xy) / len(xy)
