@@ -128,9 +128,22 @@ class BadMass(Exception):
 
 def check_json(value: Any, where: str) -> None:
     """Refuse a value that JSON cannot carry exactly (so that ``save`` is lossless)."""
-    problem = json_problem(value, "")
-    if problem:
-        raise ValueError(f"{where}: {problem}")
+    if not _is_json(value):  # the quick walk; the message's path is found only for a value that fails
+        raise ValueError(f"{where}: {json_problem(value, '')}")
+
+
+def _is_json(value: Any) -> bool:
+    """Whether :func:`json_problem` finds nothing, without building paths."""
+    kind = type(value)
+    if value is None or kind is bool or kind is int or kind is str:
+        return True
+    if kind is float:
+        return math.isfinite(value)
+    if kind is list or kind is tuple:
+        return all(map(_is_json, value))
+    if kind is dict:
+        return all(type(k) is str for k in value) and all(map(_is_json, value.values()))
+    return False
 
 
 def json_problem(value: Any, path: str) -> str | None:

@@ -62,23 +62,22 @@ def refits(
     move = min(config.merge.distance, config.corners.distance / 2)
     fits: dict[str, NDArray[np.float64]] = {}
     lines_of: dict[str, int] = {}
-    for k, group in enumerate(merged.groups):
-        rows = pool[group]
-        owners = set(store.line[rows].tolist()) - {""}
+    line = store.line[pool].tolist()
+    for k, (group, p, q) in enumerate(zip(merged.groups, merged.p.tolist(), merged.q.tolist(), strict=True)):
+        owners = {line[i] for i in group.tolist()} - {""}
         if len(owners) != 1:
             continue
         (lid,) = owners
         data = g.edges[dissolved[lid]]
-        if not set(data["members"]) <= set(rows.tolist()):
+        if not set(data["members"]) <= set(pool[group].tolist()):
             continue
-        old = np.asarray(data["fit"], dtype=float)
-        new = np.stack([merged.p[k], merged.q[k]])
-        if np.hypot(*(new - old[::-1]).T).max() < np.hypot(*(new - old).T).max():
-            new = new[::-1]
-        u, v = old[1] - old[0], new[1] - new[0]
-        cos = abs(float(u @ v)) / (np.hypot(*u) * np.hypot(*v))
-        if np.hypot(*(new - old).T).max() <= move and cos >= cos_tol:
-            fits[lid], lines_of[lid] = new, k
+        a, b = data["fit"]  # plain floats: a handful of numbers per line
+        if max(math.dist(p, b), math.dist(q, a)) < max(math.dist(p, a), math.dist(q, b)):
+            p, q = q, p
+        u, v = (b[0] - a[0], b[1] - a[1]), (q[0] - p[0], q[1] - p[1])
+        cos = abs(u[0] * v[0] + u[1] * v[1]) / (math.hypot(*u) * math.hypot(*v))
+        if max(math.dist(p, a), math.dist(q, b)) <= move and cos >= cos_tol:
+            fits[lid], lines_of[lid] = np.array([p, q]), k
     if not fits:
         return {}, fits, NearEnds([], np.zeros((0, 2)), np.zeros((0, 2)))
     ends = np.concatenate(list(fits.values()))
