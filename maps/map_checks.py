@@ -10,6 +10,7 @@ ValueError: 'L1': attributes ['members'] are reserved
 
 from __future__ import annotations
 
+import builtins
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -34,8 +35,15 @@ def check_extras(attrs: Mapping[str, Any], reserved: tuple[str, ...], id: str) -
     map_json.check_json(attrs, id)
 
 
-def checked_history(history: Iterable[Mapping[str, Any]], id: str) -> list[dict[str, Any]]:
-    """A copy of the records of ``id``'s history, each a JSON object."""
-    records = [dict(record) for record in history]
-    map_json.check_json(records, f"{id}: history")
+def checked_history(
+    history: Iterable[Mapping[str, Any]], id: str, kept: Iterable[Mapping[str, Any]] = ()
+) -> list[dict[str, Any]]:
+    """A copy of the records of ``id``'s history, each a JSON object; records of ``kept`` (the history the
+    map holds, checked when they came) are taken as they are, not checked again."""
+    known = {builtins.id(record) for record in kept}
+    records = [record if builtins.id(record) in known else dict(record) for record in history]
+    try:
+        map_json.check_json([r for r in records if builtins.id(r) not in known], f"{id}: history")
+    except ValueError:
+        map_json.check_json(records, f"{id}: history")  # raises, naming the record by its place in the history
     return records

@@ -146,7 +146,7 @@ class MapObjects:
         if "id" in attrs or (is_line and ({"kind", "xy", "source", "target"} & set(attrs))):
             raise ValueError(f"{id!r}: cannot set {sorted(attrs)}: id, and a line's kind and ends, are fixed")
         checked = dict(attrs)
-        map_json.check_json({k: v for k, v in attrs.items() if k not in ("mass", "xy")}, id)
+        map_json.check_json({k: v for k, v in attrs.items() if k not in ("mass", "xy", "history")}, id)
         if "mass" in attrs:
             checked["mass"] = self.check_mass(attrs["mass"], id)
         if "xy" in attrs:
@@ -154,7 +154,7 @@ class MapObjects:
         if "kind" in attrs:
             checked["kind"] = checked_kind(attrs["kind"], id)
         if "history" in attrs:
-            checked["history"] = checked_history(attrs["history"], id)
+            checked["history"] = checked_history(attrs["history"], id, kept=data["history"])
             self.running.history_set(id, checked["history"], data["history"])
         self.undo.record("set", id, {k: data.get(k, ABSENT) for k in checked})
         data.update(checked)

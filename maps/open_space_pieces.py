@@ -3,8 +3,13 @@
 Every observation's open space is a piece; the union of all of them is made
 only when it is read whole (:meth:`OpenSpacePieces.union`), and a spatial index
 of the pieces' boxes answers what is near a box at the cost of what is there
-(:meth:`OpenSpacePieces.near`). The map's graph attribute ``open_space`` holds
-the union as GeoJSON-like coordinates, written whenever the union is made.
+(:meth:`OpenSpacePieces.near`): the union of the pieces there, or, where more
+than :data:`MANY` pieces overlap the box (a place the robot passed again and
+again), the union of square tiles (:data:`TILE` metres a side) that each keep
+the union of what the pieces put in them, kept up to date as pieces come: a
+place seen a hundred times costs what a place seen a few times does. The map's
+graph attribute ``open_space`` holds the union as GeoJSON-like coordinates,
+written whenever the union is made.
 
 >>> import networkx as nx, shapely
 >>> space = OpenSpacePieces(nx.Graph())
@@ -17,13 +22,23 @@ the union as GeoJSON-like coordinates, written whenever the union is made.
 
 from __future__ import annotations
 
+import math
+
 import networkx as nx
 import shapely
 
 from evmap.maps import map_json
 from evmap.maps.spatial import Bounds, SpatialIndex
 
-__all__ = ["OpenSpacePieces"]
+__all__ = ["MANY", "TILE", "OpenSpacePieces"]
+
+MANY = 12
+"""A box holding more pieces than this is read from the tiles."""
+
+TILE = 4.0
+"""The side of a tile (metres)."""
+
+Tile = tuple[int, int]
 
 
 class OpenSpacePieces:
@@ -35,6 +50,7 @@ class OpenSpacePieces:
         self._pieces: list[shapely.Geometry] = []
         self._index: SpatialIndex | None = None
         self._union: shapely.MultiPolygon | None = shapely.MultiPolygon()  # None: not made since the last change
+        self._tiles: dict[Tile, shapely.Geometry] = {}  # the tiles read so far, each the union of its part
 
     def __len__(self) -> int:
         return len(self._pieces)
@@ -56,6 +72,7 @@ class OpenSpacePieces:
         geometry = map_json.as_multipolygon(geometry)
         self._pieces = list(geometry.geoms)
         self._index = None
+        self._tiles = {}
         self._union = geometry
         self.graph.graph["open_space"] = map_json.geojson(geometry)
 
@@ -65,6 +82,11 @@ class OpenSpacePieces:
             if self._index is not None:
                 self._index.insert(str(len(self._pieces)), piece.bounds)
             self._pieces.append(piece)
+            for tile in _tiles(piece.bounds):
+                if tile in self._tiles:
+                    part = shapely.intersection(piece, _box(tile))
+                    if not part.is_empty:
+                        self._tiles[tile] = shapely.union(self._tiles[tile], part)
         self._union = None
 
     def near(self, bounds: Bounds) -> shapely.Geometry:
@@ -72,15 +94,39 @@ class OpenSpacePieces:
         if self._index is None:
             keys = [str(k) for k in range(len(self._pieces))]
             self._index = SpatialIndex.from_boxes(keys, shapely.bounds(self._pieces))
-        pieces = [self._pieces[int(k)] for k in self._index.query(bounds)]
+        keys = self._index.query(bounds)
+        if len(keys) > MANY:
+            return shapely.union_all([self._tile(tile, self._index) for tile in _tiles(bounds)])
+        pieces = [self._pieces[int(k)] for k in keys]
         return shapely.union_all(pieces) if pieces else shapely.MultiPolygon()
+
+    def _tile(self, tile: Tile, index: SpatialIndex) -> shapely.Geometry:
+        """The union of the pieces' parts in ``tile`` (found by ``index``), made the first time it is read."""
+        if tile not in self._tiles:
+            box = _box(tile)
+            parts = [shapely.intersection(self._pieces[int(k)], box) for k in index.query(box.bounds)]
+            self._tiles[tile] = shapely.union_all(parts) if parts else shapely.MultiPolygon()
+        return self._tiles[tile]
 
     def truncate(self, count: int, union: shapely.MultiPolygon | None) -> None:
         """Back to the first ``count`` pieces, whose union is ``union`` (None: not made)."""
         del self._pieces[count:]
         self._index = None
+        self._tiles = {}
         self._union = union
 
     def made_union(self) -> shapely.MultiPolygon | None:
         """The union if it is made, else None (what :meth:`truncate` takes back)."""
         return self._union
+
+
+def _tiles(bounds: Bounds) -> list[Tile]:
+    """The tiles a box meets."""
+    i0, j0, i1, j1 = (math.floor(v / TILE) for v in bounds)
+    return [(i, j) for i in range(i0, i1 + 1) for j in range(j0, j1 + 1)]
+
+
+def _box(tile: Tile) -> shapely.Polygon:
+    """A tile as a polygon."""
+    i, j = tile
+    return shapely.box(i * TILE, j * TILE, (i + 1) * TILE, (j + 1) * TILE)

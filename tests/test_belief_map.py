@@ -147,6 +147,16 @@ def test_set_attrs_changes_mass_position_kind_and_extras(bm):
     assert [c.id for c in bm.corners(0.5)] == ["C1", "E1"] and bm.landmarks()[0].id == "E1"
 
 
+def test_a_history_grown_by_a_bad_record_is_refused_naming_it(bm):
+    """Records the map holds are not checked again; a new one that JSON cannot carry is named by its place."""
+    bm.set_attrs("L1", history=[{"pose": 0}, {"pose": 1}])
+    kept = bm.graph.edges[bm.ends("L1")]["history"]
+    with pytest.raises(ValueError, match=r"history: \[2\]\.pose: nan is not finite"):
+        bm.set_attrs("L1", history=[*kept, {"pose": float("nan")}])
+    bm.set_attrs("L1", history=[*kept, {"pose": 2}])
+    assert [r["pose"] for r in bm.graph.edges[bm.ends("L1")]["history"]] == [0, 1, 2]
+
+
 def test_open_space_is_a_multipolygon_stored_as_coordinates(bm):
     assert bm.open_space.is_empty and bm.graph.graph["open_space"] == {"type": "MultiPolygon", "coordinates": []}
     room = shapely.box(0, 0, 2, 1).difference(shapely.box(0.5, 0.25, 1, 0.5))
@@ -178,3 +188,28 @@ def test_batch_beliefs_equal_the_engine_beliefs():
         if len(frame) == 2:
             assert bel.tolist() == [m.belief("real") for m in masses]
     assert belief_plausibility([], 1)[0].shape == (0,)
+
+
+def test_open_space_near_a_place_seen_many_times_is_read_from_tiles_and_is_the_same():
+    """Beyond MANY pieces in a box the tiles answer; they follow the pieces that come later, and a roll-back."""
+    from evmap.maps.open_space_pieces import MANY, OpenSpacePieces
+
+    rng = np.random.default_rng(3)
+    corners = rng.uniform(0, 9, (3 * MANY, 2))
+    pieces = [shapely.box(x, y, x + 2.5, y + 1.5) for x, y in corners.tolist()]
+    space = OpenSpacePieces(nx.Graph())
+    box = (2.0, 2.0, 7.0, 6.0)
+
+    def same_as_union(count):
+        near = shapely.clip_by_rect(space.near(box), *box)
+        whole = shapely.clip_by_rect(shapely.union_all(pieces[:count]), *box)
+        return shapely.symmetric_difference(near, whole).area < 1e-9
+
+    for piece in pieces[: 2 * MANY]:
+        space.add(piece)
+    assert same_as_union(2 * MANY)
+    for piece in pieces[2 * MANY :]:  # the tiles read above follow the new pieces
+        space.add(piece)
+    assert same_as_union(3 * MANY)
+    space.truncate(MANY + 1, None)
+    assert same_as_union(MANY + 1)
