@@ -32,7 +32,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from evmap.maps.noise import COMPUTED, judge
+from evmap.maps.noise import COMPUTED, LATEST_POSES, judge
 from evmap.maps.observation import Observation
 from evmap.maps.rebuild import rebuild, refresh_points
 from evmap.maps.reinforcement import reinforce
@@ -148,7 +148,10 @@ def touched_segments(bm: BeliefMap, new: NDArray[np.intp], space: shapely.Geomet
     A segment's verdict changes only when another pose's segment comes to lie on
     it (``lsl_other_poses``) or new open space reaches it, so the rows whose boxes
     meet a new segment's box (grown by the merging reach) or a piece of the new
-    open space's box are all: what the observation touches, at any map size.
+    open space's box are all: what the observation touches, at any map size. A
+    segment eliminated by the map's poses before the latest
+    :data:`~evmap.maps.noise.LATEST_POSES` is settled: noise for good, not judged
+    again (a place passed again and again does not pile up its phantoms' work).
     """
     store = bm.segments
     margin = config.merge.distance + config.merge.gap
@@ -156,8 +159,9 @@ def touched_segments(bm: BeliefMap, new: NDArray[np.intp], space: shapely.Geomet
     if not space.is_empty:
         boxes.append(shapely.bounds(shapely.get_parts(space)))
     grown = np.concatenate(boxes).reshape(-1, 4) + np.array([-margin, -margin, margin, margin])
-    found = [store.near(tuple(box)) for box in grown.tolist()]
-    return np.unique(np.concatenate([new, *found])) if found else new
+    found = np.unique(np.concatenate([new, *(store.near(tuple(box)) for box in grown.tolist())]))
+    settled = store.eliminated[found] & ~np.isin(store.pose[found], bm.poses[-LATEST_POSES:])
+    return found[~settled]
 
 
 def check_observation(bm: BeliefMap, obs: Observation, config: Config) -> None:

@@ -1,5 +1,6 @@
 """Updates rebuild only the part of the map an observation touches: the result is the whole rebuild's."""
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -8,11 +9,16 @@ import pytest
 from evmap import configs
 from evmap.maps.app.log_run import run_log
 from evmap.maps.app.run import run_scenario
+from evmap.maps.belief_map import new_map
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import merge_segments
+from evmap.maps.noise import LATEST_POSES
+from evmap.maps.observation import observe
+from evmap.maps.pipeline import touched_segments
 from evmap.sources.config import load_config
 from evmap.sources.relation import relation
-from evmap.sources.sim.scenario import load_scenario
+from evmap.sources.sim.scenario import default_scenario, load_scenario
+from evmap.sources.sim.world import World
 
 LOG = Path(__file__).parent / "data" / "logs" / "intel-excerpt.log.gz"
 
@@ -73,3 +79,20 @@ def test_points_end_the_right_number_of_lines(kind):
             assert g.degree(n) == 1
         elif d["kind"] == "corner":
             assert g.degree(n) >= 2
+
+
+def test_segments_eliminated_before_the_latest_poses_are_settled():
+    """The corridor passed again and again: its old phantoms stay noise and are not judged again."""
+    config = load_config("default")
+    first = observe(World(default_scenario()), 0, config)
+    bm = new_map(config)
+    for k in range(LATEST_POSES + 2):
+        bm.update(dataclasses.replace(first, pose_index=k))
+    store = bm.segments
+    old = np.flatnonzero(store.eliminated & (store.pose == 0))
+    recent = np.flatnonzero(store.eliminated & (store.pose == LATEST_POSES + 1))
+    assert len(old) and len(recent)
+    new = np.flatnonzero(store.pose == LATEST_POSES + 1)
+    touched = touched_segments(bm, new, bm.open_space_near(bm.extent()), config)
+    assert not np.isin(old, touched).any() and np.isin(recent, touched).all()
+    assert store.eliminated[old].all()  # still in the store, noise for good
