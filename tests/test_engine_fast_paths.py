@@ -91,7 +91,14 @@ def test_combine_on_tiny_frames_equals_the_rule_on_wider_ones(case):
     got = combine(*tiny)
     assert got.masks.tolist() == expected.masks.tolist()
     np.testing.assert_allclose(got.masses, expected.masses, rtol=0, atol=1e-15)
-    assert reduce(lambda a, b: combine(a, b), tiny).isclose(got, rtol=1e-12, atol=1e-15)
+    try:
+        by_hand = reduce(lambda a, b: combine(a, b), tiny)
+    except TotalConflictError:
+        # a product underflowed to 0 in a step of the fold by hand (1e-200 x 1e-201), its set lost,
+        # and a later step found no set in common: the n-ary call went the rescaled way
+        assert dempster_python(stacks, n) is None
+        return
+    assert by_hand.isclose(got, rtol=1e-12, atol=1e-15)
 
 
 @pytest.mark.parametrize("n", [5, 31, 32, 40, 63])
