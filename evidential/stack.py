@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import functools
 import math
-from functools import reduce
 from typing import NamedTuple
 
 import numpy as np
@@ -336,7 +335,7 @@ def dempster_columns(sources: list[NDArray[np.float64]], n: int) -> NDArray[np.f
                     np.multiply(m[a], s[b, block], out=into[c])
                     started[c] = True
             m = into
-        z = reduce(np.add, m[1:])
+        z = functools.reduce(np.add, m[1:])
         if not z.min() >= SCALE_FLOOR:
             return None
         np.divide(m[1:], z, out=out[1:, block])
