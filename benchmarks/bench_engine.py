@@ -78,31 +78,51 @@ class Row(NamedTuple):
     """This implementation's time over ours, round by round."""
 
 
+def orders(k: int) -> list[list[int]]:
+    """Orders of ``k`` implementations in which each runs right after every other one equally
+    often: a Williams design, ``k`` orders (``2k`` for odd ``k``).
+
+    Examples
+    --------
+    >>> orders(4)
+    [[0, 1, 3, 2], [1, 2, 0, 3], [2, 3, 1, 0], [3, 0, 2, 1]]
+    """
+    first = [0] + [(j + 1) // 2 if j % 2 else k - j // 2 for j in range(1, k)]
+    rows = [[(x + r) % k for x in first] for r in range(k)]
+    return rows + [row[::-1] for row in rows] if k % 2 else rows
+
+
 def rounds_of(impls: list[Impl], budget: float = 3.0, most: int = 25) -> list[np.ndarray]:
     """Seconds per call of each implementation, in rounds that alternate between them.
 
     Each round times every implementation once, over a batch of calls lasting
-    about 5 ms, so that all see the same state of the machine (this VM's speed
-    drifts within a process). The order rotates from round to round: whatever
-    runs right after a peer that sweeps large tensors (torchbelief dense) finds
-    the caches and the heap cold, and a fixed order would always give that cost
-    to the same implementation.
+    about 5 ms (counted on a second call: the first of a fresh process can take
+    twice as long), so that all see the same state of the machine (this VM's speed
+    drifts within a process). Whatever runs right after a peer that sweeps large
+    tensors (torchbelief dense) finds the caches cold, so the order changes from
+    round to round by :func:`orders`, each implementation following each other
+    equally often; the rounds end on a whole cycle of orders. (Rotating one order
+    would not do: with three implementations or more, the same one would always
+    follow the slow peer.)
     """
     number = []
     for _, f in impls:
+        f()
         t = time.perf_counter()
         f()
         number.append(max(1, int(0.005 / max(time.perf_counter() - t, 1e-7))))
     times: list[list[float]] = [[] for _ in impls]
-    entries = list(zip(impls, number, times))
+    plan = orders(len(impls))
     start = time.perf_counter()
-    while len(times[0]) < most and (len(times[0]) < 5 or time.perf_counter() - start < budget):
-        turn = len(times[0]) % len(entries)
-        for (_, f), k, ts in entries[turn:] + entries[:turn]:
+    while len(times[0]) % len(plan) or (
+        len(times[0]) < most and (len(times[0]) < 5 or time.perf_counter() - start < budget)
+    ):
+        for i in plan[len(times[0]) % len(plan)]:
+            f, k = impls[i][1], number[i]
             t = time.perf_counter()
             for _ in range(k):
                 f()
-            ts.append((time.perf_counter() - t) / k)
+            times[i].append((time.perf_counter() - t) / k)
     return [np.array(ts) for ts in times]
 
 
@@ -110,7 +130,9 @@ def measured(close: list[Impl], slow: list[Impl]) -> list[Row]:
     """Ours (first of ``close``) and the peers: the close ones timed in alternating
     rounds with ours, then each slow one (pure Python, 50x and more) in rounds of
     its own, after the others: its millions of small objects would slow whatever
-    runs next, an artefact of the benchmark rather than a property of either."""
+    runs next, an artefact of the benchmark rather than a property of either.
+    pyds on frames of 2 or 3 elements, within a few times ours, is a close one:
+    timed in other rounds than ours, its ratio would follow the machine's drift."""
     times = rounds_of(close)
     rows = [Row(name, float(np.median(ts)), ts / times[0]) for (name, _), ts in zip(close, times)]
     for name, f in slow:
@@ -155,7 +177,7 @@ def sparse_workload(n: int, k: int, rng: np.random.Generator) -> list[Row]:
 
         p1 = pyds.MassFunction(dict(zip(sets(a), wa.tolist())))
         p2 = pyds.MassFunction(dict(zip(sets(b), wb.tolist())))
-        slow.append(("pyds", lambda: p1.combine_conjunctive(p2)))
+        (impls if n <= 3 else slow).append(("pyds", lambda: p1.combine_conjunctive(p2)))
     return measured(impls, slow)
 
 
@@ -232,12 +254,11 @@ def pair_workload(rng: np.random.Generator) -> list[Row]:
         s1 = tb.SparseMass(torch.tensor([1, 2, 3]), torch.from_numpy(a), 2)
         s2 = tb.SparseMass(torch.tensor([1, 2, 3]), torch.from_numpy(b), 2)
         impls.append(("torchbelief sparse", lambda: s1.dempster(s2)))
-    slow: list[Impl] = []
     if pyds is not None:
         hyp = [frozenset({"real"}), frozenset({"noise"}), frozenset({"real", "noise"})]
         p1, p2 = pyds.MassFunction(dict(zip(hyp, a.tolist()))), pyds.MassFunction(dict(zip(hyp, b.tolist())))
-        slow.append(("pyds", lambda: p1 & p2))
-    return measured(impls, slow)
+        impls.append(("pyds", lambda: p1 & p2))
+    return measured(impls, [])
 
 
 def nary_workload(rng: np.random.Generator) -> list[Row]:

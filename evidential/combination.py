@@ -6,6 +6,8 @@ Both resolve the rule the same way and call the same kernels from
 
 from __future__ import annotations
 
+from functools import reduce
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -13,7 +15,9 @@ from evidential.errors import FrameError, MassError, TotalConflictError
 from evidential.mass import SUM_TOLERANCE, MassFunction
 from evidential.rules import RULES, Rule, RuleFunction, conjunctive, dempster
 from evidential.stack import (
+    COLUMN_MAX_BITS,
     Stack,
+    dempster_columns,
     dempster_fold,
     dempster_scaled,
     full,
@@ -102,20 +106,23 @@ SAMPLE_ROWS = 64
 """Rows in which :func:`_support` first looks for the sets a batch uses."""
 
 
-def _batch(i: int, array: ArrayLike, shape: tuple[int, ...] | None) -> NDArray[np.float64]:
-    """Validated (2**n, N) C-contiguous copy of a (N, 2**n) batch."""
+def _batch(i: int, array: ArrayLike, shape: tuple[int, ...] | None, columns: bool) -> NDArray[np.float64]:
+    """Validated (2**n, N) C-contiguous copy of a (N, 2**n) batch; with ``columns``, up to
+    2**:data:`~evidential.stack.COLUMN_MAX_BITS` sets, its transposed view (validated column
+    by column, for :func:`~evidential.stack.dempster_columns` to read in place)."""
     a = np.asarray(array, dtype=np.float64)
     size = a.shape[-1] if a.ndim == 2 else 0
     if size < 2 or size & (size - 1) or (shape is not None and a.shape != shape):
         want = "(N, 2**n) with n >= 1" if shape is None else f"{shape} like batch 0"
         raise MassError(f"batch {i} must have shape {want}, got {a.shape}")
-    t = np.ascontiguousarray(a.T)
+    narrow = columns and size <= 1 << COLUMN_MAX_BITS
+    t = a.T if narrow else np.ascontiguousarray(a.T)
     if not t.min() >= 0:
         col, row = np.argwhere(~(t >= 0))[0]
         raise MassError(
             f"batch {i}, row {row}: mass of focal set {col} must be finite and >= 0, got {float(t[col, row])!r}"
         )
-    total = t.sum(axis=0)
+    total = reduce(np.add, t) if narrow else t.sum(axis=0)  # the same sums, set by set
     if not (total.min() >= 1.0 - SUM_TOLERANCE and total.max() <= 1.0 + SUM_TOLERANCE):
         row = int(np.argmax(np.abs(total - 1.0)))
         raise MassError(
@@ -151,10 +158,18 @@ def combine_batch(*batches: ArrayLike, rule: str | RuleFunction = "dempster") ->
     """
     if not batches:
         raise ValueError("combine_batch needs at least one batch, got none")
-    first = _batch(0, batches[0], None)
-    arrays = [first] + [_batch(i, b, (first.shape[1], first.shape[0])) for i, b in enumerate(batches[1:], 1)]
+    function = _resolve(rule)  # first: Dempster's rule reads narrow batches in place
+    columns = function is dempster
+    first = _batch(0, batches[0], None, columns)
+    shape = (first.shape[1], first.shape[0])
+    arrays = [first] + [_batch(i, b, shape, columns) for i, b in enumerate(batches[1:], 1)]
     n = first.shape[0].bit_length() - 1
-    result = _resolve(rule)([_support(a) for a in arrays], n)
+    if columns and n <= COLUMN_MAX_BITS:
+        dense = dempster_columns(arrays, n)
+        if dense is not None:
+            return dense.T
+        arrays = [np.ascontiguousarray(a) for a in arrays]  # underflow or total conflict: the general path
+    result = function([_support(a) for a in arrays], n)
     out = result.masses if result.masks.size == 1 << n else to_dense(result, n)
     if any(np.may_share_memory(out, a) for a in arrays):  # a rule that returned a source as it is
         out = out.copy()
