@@ -11,13 +11,12 @@ from functools import reduce
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from evidential.columns import COLUMN_MAX_BITS, dempster_columns
 from evidential.errors import FrameError, MassError, TotalConflictError
 from evidential.mass import SUM_TOLERANCE, MassFunction
 from evidential.rules import RULES, Rule, RuleFunction, conjunctive, dempster
 from evidential.stack import (
-    COLUMN_MAX_BITS,
     Stack,
-    dempster_columns,
     dempster_fold,
     dempster_scaled,
     full,

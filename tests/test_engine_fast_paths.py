@@ -9,16 +9,15 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from evidential import Frame, MassFunction, TotalConflictError, combine, combine_batch, conflict, stack
+from evidential import Frame, MassFunction, TotalConflictError, columns, combine, combine_batch, conflict
+from evidential.columns import COLUMN_MAX_BITS, dempster_columns
 from evidential.rules import RULES
 from evidential.stack import (
-    COLUMN_MAX_BITS,
     PYTHON_MAX_BITS,
     PYTHON_MAX_SETS,
     SCALE_FLOOR,
     Stack,
     aggregate,
-    dempster_columns,
     dempster_pair,
     dempster_python,
     dempster_scaled,
@@ -154,7 +153,7 @@ def test_dempster_columns_on_random_batches_are_the_pairwise_fold_bit_for_bit(n,
     """Dirichlet rows (every third without mass on ∅): one in a few three-term sums rounds
     differently in another order, which a thousand rows show; in blocks of 7 rows too."""
     if block:
-        monkeypatch.setattr(stack, "COLUMN_BLOCK", block)
+        monkeypatch.setattr(columns, "COLUMN_BLOCK", block)
     rng = np.random.default_rng([n, count])
     batches = [rng.dirichlet(np.ones(1 << n), 1000) for _ in range(count)]
     for b in batches:
