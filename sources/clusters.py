@@ -22,15 +22,16 @@ def close_pairs(points: ArrayLike, distance: float) -> tuple[NDArray[np.intp], N
     Parameters
     ----------
     points : (N, 2) coordinates.
-    distance : the largest distance of a pair (inclusive), >= 0.
+    distance : the largest distance of a pair (inclusive, as ``np.hypot`` of the differences), >= 0.
 
     >>> close_pairs([[0, 0], [0.1, 0], [0.3, 0], [0.1, 0]], 0.1)
     (array([0, 0, 1]), array([1, 3, 3]))
     """
     xy = np.asarray(points, dtype=float).reshape(-1, 2)
     geoms = shapely.points(xy)
-    i, j = shapely.STRtree(geoms).query(geoms, predicate="dwithin", distance=distance)
-    keep = i < j
+    slack = 8 * np.finfo(float).eps * distance  # GEOS rounds the distance its own way: decided below by hypot
+    i, j = shapely.STRtree(geoms).query(geoms, predicate="dwithin", distance=distance + slack)
+    keep = (i < j) & (np.hypot(*(xy[i] - xy[j]).T) <= distance)
     i, j = i[keep], j[keep]
     order = np.lexsort((j, i))
     return i[order].astype(np.intp), j[order].astype(np.intp)

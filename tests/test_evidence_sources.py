@@ -307,7 +307,12 @@ def test_inside_fraction_along_the_boundary_and_through_vertices():
 SPACE = shapely.union(ROOM, shapely.Point(3, 3).buffer(1)).difference(shapely.box(0.5, 0.5, 1, 1))  # a hole
 
 
-@given(st.lists(st.tuples(*(st.floats(-3, 5, allow_nan=False) for _ in range(4))), min_size=1, max_size=30))
+NANOMETRES = st.floats(-3, 5, allow_nan=False).map(lambda v: round(v, 9))
+"""Coordinates in metres to the nanometre: on subnormal ones (1e-308) GEOS, the reference, errs (it put a
+segment from (1e-163, 1e-308) to (-1, 1) wholly inside SPACE, which it leaves at once)."""
+
+
+@given(st.lists(st.tuples(*(NANOMETRES for _ in range(4))), min_size=1, max_size=30))
 def test_inside_fraction_is_shapelys_intersection_length(coords):
     c = np.array(coords)
     got = inside_fraction(c[:, :2], c[:, 2:], SPACE)
