@@ -10,6 +10,8 @@ the pose), each ray is one of:
 - **short**: its point lies in front: something nearer hid the segment;
 - **none**: nothing returned although the segment is within the sensor's range.
 
+The poses are those whose readings reach the segment, the latest
+:data:`~evmap.maps.noise.LATEST_POSES` of them (:func:`evmap.maps.noise.judge`).
 Two features come of it (:func:`ray_features`):
 
 - ``contour_free``: ``contradicted`` when rays of any pose, the segment's own

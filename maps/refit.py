@@ -116,11 +116,8 @@ def end_moves(
     bm: BeliefMap, fits: dict[str, NDArray[np.float64]], near: NearEnds, config: Config
 ) -> dict[str, list[tuple[str, tuple[float, float]]] | None]:
     """Where the end points of each line of ``fits`` go when the lines take their new fits: a free end onto
-    its fit end, a corner to the mean of its lines' fit ends; None for a line whose corners would change.
-
-    A corner stays the corner :func:`~evmap.maps.corners.find_corners` finds when its lines' ends (the new
-    fits where refitted) are still linked into one set (within the corner distance, across the minimum
-    angle) and the line's end links to no end of another point; a free end stays free when it links to none.
+    its fit end, a corner of two lines to the midpoint of their fit ends; None for a line whose corners would
+    change (an end meeting an end of ``near`` that it did not meet, or leaving its corner's other line).
     """
     g = bm.graph
     cos_max = np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
@@ -162,22 +159,13 @@ def end_moves(
 def _corner_place(
     near: NearEnds, rows: list[int], degree: int, reach: float, cos_max: float
 ) -> tuple[float, float] | None:
-    """The mean of the ends ``rows`` of ``near`` if they are the ends of all ``degree`` lines of their point,
-    one each, linked into one set as corners link ends; else None."""
-    lines = [near.pairs[i][0] for i in rows]
-    if len(rows) != degree or len(set(lines)) != len(lines):
+    """The midpoint of the ends ``rows`` of ``near`` if they are the ends of the two lines of their corner
+    (``degree`` 2), one each, still linked as corners link ends; else None (a corner of three lines or more
+    is found anew: single linkage may join or split it in ways one line's move does not show)."""
+    if degree != 2 or len(rows) != 2 or near.pairs[rows[0]][0] == near.pairs[rows[1]][0]:
         return None
-    xy, u = near.ends[rows].tolist(), near.u[rows].tolist()
-    reached, todo = {0}, [0]
-    while todo:  # single linkage from the first end (a handful of ends: plain Python)
-        a = todo.pop()
-        for b in range(len(rows)):
-            if b not in reached and (
-                math.hypot(xy[a][0] - xy[b][0], xy[a][1] - xy[b][1]) <= reach
-                and abs(u[a][0] * u[b][0] + u[a][1] * u[b][1]) <= cos_max
-            ):
-                reached.add(b)
-                todo.append(b)
-    if len(reached) < len(rows):
+    (ax, ay), (bx, by) = near.ends[rows].tolist()
+    (ux, uy), (vx, vy) = near.u[rows].tolist()
+    if math.hypot(ax - bx, ay - by) > reach or abs(ux * vx + uy * vy) > cos_max:
         return None
-    return sum(x for x, _ in xy) / len(xy), sum(y for _, y in xy) / len(xy)
+    return (ax + bx) / 2, (ay + by) / 2
