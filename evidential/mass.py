@@ -10,10 +10,11 @@ from numbers import Real
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from evidential.elements import element_masses
 from evidential.errors import FrameError, MassError, TotalConflictError
 from evidential.frame import Focal, Frame
 from evidential.rules import dempster
-from evidential.stack import DENSE_MAX_BITS, Stack, element_masses
+from evidential.stack import DENSE_MAX_BITS, Stack
 
 SUM_TOLERANCE = 1e-9
 """Largest accepted distance of the total mass from 1."""
@@ -373,9 +374,8 @@ class MassFunction:
     def pignistic(self) -> dict[str, float]:
         """The pignistic probabilities BetP(ω) = sum over A ∋ ω of m(A) / |A| / (1 - m(∅)).
 
-        Computed on the focal sets alone (never a 2**n vector), the non-empty
-        masses normalised first. Raises
-        :class:`~evidential.errors.UndefinedTransformError` when m(∅) = 1.
+        Computed on the focal sets alone (never a 2**n vector), the non-empty masses normalised first.
+        Raises :class:`~evidential.errors.UndefinedTransformError` when m(∅) = 1.
         """
         p = element_masses(self._stack, len(self.frame), split=True)[:, 0]
         return dict(zip(self.frame.elements, p.tolist()))

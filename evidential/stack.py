@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import functools
 import math
+import sys
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from evidential.errors import TotalConflictError, UndefinedTransformError
+from evidential.errors import TotalConflictError
 from evidential.transforms import sweep
 
 BINCOUNT_MAX_BITS = 22
@@ -173,9 +174,12 @@ def dempster_pair(a: Stack, b: Stack, n: int) -> Stack | None:
     The same sums as the rule's pairwise path (one ``bincount`` in pair order,
     the non-empty masses summed in increasing order), in fewer numpy calls: up to
     :data:`PAIR_TABLE_BITS` elements through one 2**n table. Masses are divided
-    only where there is conflict. None where the non-conflicting mass is 0 or
-    below :data:`SCALE_FLOOR` (total conflict, or underflow: see :func:`dempster_scaled`).
+    only where there is conflict. None where a product may underflow, or the
+    non-conflicting mass is 0 or below :data:`SCALE_FLOOR` (total conflict, or
+    underflow: see :func:`dempster_scaled`).
     """
+    if a.masses.min() * b.masses.min() < sys.float_info.min:
+        return None  # a product may underflow: the caller's scaled path is exact
     keys = np.bitwise_and.outer(a.masks, b.masks).ravel()
     weights = np.multiply.outer(a.masses[:, 0], b.masses[:, 0]).ravel()
     if n <= PAIR_TABLE_BITS:
@@ -214,7 +218,7 @@ def dempster_python(sources: list[Stack], n: int) -> Stack | None:
     in pair order from 0 into a 2**n table, ∅ and zero sums dropped, the (at most 7, so
     summed one by one, as numpy does below 8) non-empty masses summed in increasing order,
     divided only where there is conflict. None where a step's non-conflicting mass is below
-    :data:`SCALE_FLOOR`.
+    :data:`SCALE_FLOOR` or one of its products may underflow.
 
     Examples
     --------
@@ -228,6 +232,8 @@ def dempster_python(sources: list[Stack], n: int) -> Stack | None:
     masks, masses = sources[0].masks.tolist(), sources[0].masses.ravel().tolist()
     for s in sources[1:]:
         ys, ws = s.masks.tolist(), s.masses.ravel().tolist()
+        if min(masses) * min(ws) < sys.float_info.min:
+            return None  # a product may underflow: the general path scales
         table = [0.0] * size
         for x, wx in zip(masks, masses):
             for y, wy in zip(ys, ws):
@@ -352,56 +358,6 @@ def _zeta(s: Stack, n: int, superset: bool) -> NDArray[np.float64]:
     if s.masks.size == 1 << n:  # all the sets: the transform's first step reads them, no copy first
         return sweep(s.masses, superset, inverse=False, out=np.empty(s.masses.shape))
     return sweep(to_dense(s, n), superset, inverse=False)
-
-
-def membership(masks: NDArray, n: int) -> NDArray[np.float64]:
-    """(K, n) matrix: entry (k, i) is 1 where element ``i`` is in the focal set ``masks[k]``.
-
-    Works for int64 masks (their bytes unpacked to bits, one numpy call) and for the
-    Python ints (object arrays) of wide frames.
-
-    Examples
-    --------
-    >>> membership(np.array([1, 6]), 3).tolist()
-    [[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]]
-    """
-    if masks.dtype == object:
-        return (masks[:, None] >> np.arange(n) & 1).astype(np.float64)
-    octets = np.ascontiguousarray(masks, dtype="<i8").view(np.uint8).reshape(-1, 8)
-    return np.unpackbits(octets, axis=1, count=n, bitorder="little").astype(np.float64)
-
-
-def element_masses(s: Stack, n: int, split: bool) -> NDArray[np.float64]:
-    """(n, N) masses of the elements, the non-empty sets' masses normalised to sum 1 first.
-
-    ``split``: each set's mass is shared equally among its elements (the pignistic
-    probabilities BetP); otherwise each element gets the whole mass of every set
-    holding it (the contour pl({ω}), to be normalised by the caller). Normalising
-    before splitting keeps tiny masses away from underflow.
-
-    Raises
-    ------
-    UndefinedTransformError
-        Where all the mass is on ∅ (m(∅) = 1): there is nothing to share.
-
-    Examples
-    --------
-    >>> element_masses(Stack(np.array([0, 1, 3]), np.array([[0.5], [0.25], [0.25]])), 2, split=True).tolist()
-    [[0.75], [0.25]]
-    """
-    empty = int(s.masks.size > 0 and s.masks[0] == 0)  # increasing: ∅ can only come first
-    member = membership(s.masks[empty:], n)
-    w = s.masses[empty:]
-    z = w.sum(axis=0)
-    if not z.min() > 0:
-        where = f" (batch row {int(np.argmin(z))})" if z.size > 1 else ""
-        raise UndefinedTransformError(
-            f"all the mass is on the empty set (m(∅) = 1){where}: the pignistic and plausibility transforms are undefined"
-        )
-    w = w / z
-    if split:
-        w /= member.sum(axis=1)[:, None]
-    return np.einsum("ki,kj->ij", member, w)  # no BLAS threads
 
 
 def _frexp(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:

@@ -22,7 +22,7 @@ PACKAGES = {"evidential": "evidential", "evmap.sources": "sources", "evmap.maps"
 MAX_LINES = 420
 """No module over ~400 lines."""
 
-LONG_MODULES = {"evidential/mass.py": 492, "evidential/rules.py": 496, "evidential/stack.py": 430}
+LONG_MODULES = {"evidential/mass.py": 492, "evidential/rules.py": 496}
 """Modules over :data:`MAX_LINES` not split yet, with the lines they may have at most (they may only shrink)."""
 
 FACADES = {"evmap.sources.evidence", "evmap.sources.sim.scenario", "evidential.rules"}

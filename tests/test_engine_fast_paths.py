@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 from evidential import Frame, MassFunction, TotalConflictError, columns, combine, combine_batch, conflict
 from evidential.columns import COLUMN_MAX_BITS, dempster_columns
+from evidential.elements import element_masses, membership
 from evidential.rules import RULES
 from evidential.stack import (
     PYTHON_MAX_BITS,
@@ -21,9 +22,7 @@ from evidential.stack import (
     dempster_pair,
     dempster_python,
     dempster_scaled,
-    element_masses,
     full,
-    membership,
     pairwise,
     to_dense,
 )
