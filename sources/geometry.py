@@ -8,18 +8,31 @@ written once.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "bearing_intervals",
+    "bearing_pairs",
     "cast_rays",
     "cross",
     "crossings",
     "perpendicular_feet",
     "point_segment_distances",
     "ray_circle_distances",
+    "ray_circle_pairs",
     "segment_distances",
 ]
+
+PAIRS = 1 << 20
+"""Most (ray, surface) pairs :func:`cast_rays` computes at once: its memory is bounded by this (about 100 MB),
+not by the number of rays times the number of surfaces."""
+
+_ROUND_OFF = 1e-9
+"""Margin of :func:`cast_rays`'s bearing intervals, relative to the distances involved: a ray that the exact
+test hits, round-off included, is always in the interval."""
 
 
 def _det(u: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -144,6 +157,93 @@ def ray_circle_distances(
     return np.where((disc >= 0) & (near > 0), near, np.inf)
 
 
+def bearing_intervals(
+    origin: ArrayLike,
+    p: ArrayLike,
+    q: ArrayLike,
+    slack: ArrayLike,
+    centers: ArrayLike = (),
+    radii: ArrayLike = (),
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The bearings from ``origin`` of every point within ``slack`` (m, per segment) of segments ``p``-``q``, then
+    within ``slack`` of circles: per surface the start of an interval in [0, 2 pi) and its width (rad).
+
+    A surface within twice its slack of the origin, or whose interval comes near half a turn (the origin
+    nearly on the segment's line between its ends), gets every bearing (width 4 pi).
+
+    >>> lo, width = bearing_intervals([0, 0], [[1, -1], [-1, 1]], [[1, 1], [-1, 2]], 0.0, [[0, -2]], [1.0])
+    >>> np.round(np.degrees(lo), 3).tolist(), np.round(np.degrees(width), 3).tolist()
+    ([315.0, 116.565, 240.0], [90.0, 18.435, 60.0])
+    """
+    o = np.asarray(origin, dtype=float)
+    p, q = np.asarray(p, dtype=float).reshape(-1, 2), np.asarray(q, dtype=float).reshape(-1, 2)
+    slack = np.broadcast_to(np.asarray(slack, dtype=float), (len(p),))
+    a, b = p - o, q - o
+    start = np.arctan2(a[:, 1], a[:, 0])
+    span = np.mod(np.arctan2(b[:, 1], b[:, 0]) - start + np.pi, 2 * np.pi) - np.pi
+    dist = point_segment_distances(o, p, q)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pad = np.arcsin(np.minimum(1.0, 2 * slack / dist))
+    full = ~(dist > 2 * slack) | (np.abs(span) + 2 * pad >= np.pi)
+    lo = np.where(full, 0.0, start + np.minimum(span, 0) - pad)
+    width = np.where(full, 4 * np.pi, np.abs(span) + 2 * pad)
+    c = np.asarray(centers, dtype=float).reshape(-1, 2) - o
+    r = np.asarray(radii, dtype=float).reshape(-1)
+    dc = np.hypot(c[:, 0], c[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        half = np.arcsin(np.minimum(1.0, (r + 2 * slack.max(initial=0.0)) / dc))
+    inside = ~(dc > r + 2 * slack.max(initial=0.0))
+    lo = np.concatenate([lo, np.where(inside, 0.0, np.arctan2(c[:, 1], c[:, 0]) - half)])
+    width = np.concatenate([width, np.where(inside, 4 * np.pi, 2 * half)])
+    return np.mod(lo, 2 * np.pi), width
+
+
+def bearing_pairs(
+    lo: NDArray[np.float64], width: NDArray[np.float64], bearing: ArrayLike, limit: int = PAIRS
+) -> Iterator[tuple[NDArray[np.intp], NDArray[np.intp]]]:
+    """(ray, surface) index pairs: each surface with the rays whose ``bearing`` lies in its interval (``lo``,
+    ``width`` as :func:`bearing_intervals` gives them), in chunks of at most ``limit`` pairs (or one surface's).
+
+    >>> [pair.tolist() for pair in next(bearing_pairs(np.array([6.0, 0.5]), np.array([1.0, 4 * np.pi]), [0.2, 3.0]))]
+    [[0, 1, 0], [0, 1, 1]]
+    """
+    bearing = np.mod(np.asarray(bearing, dtype=float).reshape(-1), 2 * np.pi)
+    k = len(bearing)
+    if not k or not len(lo):
+        return
+    order = np.argsort(bearing, kind="stable")
+    twice = np.concatenate([bearing[order], bearing[order] + 2 * np.pi])
+    first = np.searchsorted(twice, lo, side="left")
+    count = np.minimum(np.searchsorted(twice, lo + width, side="right") - first, k)
+    ends = np.cumsum(count)
+    start = 0
+    while start < len(count):
+        done = int(ends[start - 1]) if start else 0
+        stop = max(start + 1, int(np.searchsorted(ends, done + limit, side="right")))
+        n = count[start:stop]
+        offset = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+        yield order[(np.repeat(first[start:stop], n) + offset) % k], np.repeat(np.arange(start, stop), n)
+        start = stop
+
+
+def ray_circle_pairs(
+    origin: ArrayLike, directions: ArrayLike, centers: ArrayLike, radii: ArrayLike
+) -> NDArray[np.float64]:
+    """:func:`ray_circle_distances` for pairs: (P,) distance along each unit direction (P, 2) to circle (P).
+
+    >>> ray_circle_pairs([0.0, 0.0], [[1.0, 0.0], [-1.0, 0.0]], [[3.0, 0.0], [0.0, 3.0]], [1.0, 1.0]).tolist()
+    [2.0, inf]
+    """
+    u = np.asarray(directions, dtype=float).reshape(-1, 2)
+    c = np.asarray(centers, dtype=float).reshape(-1, 2) - np.asarray(origin, dtype=float)
+    r = np.asarray(radii, dtype=float).reshape(-1)
+    b = u[:, 0] * c[:, 0] + u[:, 1] * c[:, 1]
+    disc = b**2 - ((c**2).sum(axis=1) - r**2)
+    with np.errstate(invalid="ignore"):
+        near = b - np.sqrt(disc)
+    return np.where((disc >= 0) & (near > 0), near, np.inf)
+
+
 def cast_rays(
     origin: ArrayLike,
     angles: ArrayLike,
@@ -175,16 +275,30 @@ def cast_rays(
     ([2.0, 2.5, inf], [0, 1, -1])
     """
     o = np.asarray(origin, dtype=float)
-    angles = np.asarray(angles, dtype=float)
+    angles = np.asarray(angles, dtype=float).reshape(-1)
     u = np.empty((len(angles), 2))  # the rays' unit directions
     u[:, 0], u[:, 1] = np.cos(angles), np.sin(angles)
     p, q = np.asarray(p, dtype=float).reshape(-1, 2), np.asarray(q, dtype=float).reshape(-1, 2)
-    t, s = crossings(o, u[:, None], p, q - p)  # (R, N)
-    t_segments = np.where((t > 0) & (s >= 0) & (s <= 1), t, np.inf)
-    t_all = np.concatenate([t_segments, ray_circle_distances(o, u, centers, radii)], axis=1)
-    if t_all.shape[1] == 0:
-        return np.full(len(angles), np.inf), np.full(len(angles), -1, dtype=np.intp)
-    hit = np.argmin(t_all, axis=1)
-    ranges = t_all[np.arange(len(angles)), hit]
-    found = ranges <= max_range
-    return np.where(found, ranges, np.inf), np.where(found, hit, -1).astype(np.intp)
+    centers, radii = np.asarray(centers, dtype=float).reshape(-1, 2), np.asarray(radii, dtype=float).reshape(-1)
+    n = len(p)
+    # Only the surfaces whose bearing interval holds a ray's bearing can be hit by it.
+    slack = _ROUND_OFF * (1 + np.hypot(*(p - o).T) + np.hypot(*(q - o).T))
+    lo, width = bearing_intervals(o, p, q, slack, centers, radii)
+    best = np.full(len(angles), np.inf)
+    hit = np.full(len(angles), -1, dtype=np.intp)
+    for i, j in bearing_pairs(lo, width, angles, PAIRS):
+        seg = j < n
+        t, s = crossings(o, u[i[seg]], p[j[seg]], q[j[seg]] - p[j[seg]])
+        dist = np.empty(len(i))
+        dist[seg] = np.where((t > 0) & (s >= 0) & (s <= 1), t, np.inf)
+        dist[~seg] = ray_circle_pairs(o, u[i[~seg]], centers[j[~seg] - n], radii[j[~seg] - n])
+        found = np.isfinite(dist)
+        i, j, dist = i[found], j[found], dist[found]
+        order = np.lexsort((j, dist, i))  # per ray the nearest, of equal ones the first listed
+        i, j, dist = i[order], j[order], dist[order]
+        head = np.r_[True, i[1:] != i[:-1]] if len(i) else np.zeros(0, dtype=bool)
+        i, j, dist = i[head], j[head], dist[head]
+        better = (dist < best[i]) | ((dist == best[i]) & (j < hit[i]))
+        best[i[better]], hit[i[better]] = dist[better], j[better]
+    found = best <= max_range
+    return np.where(found, best, np.inf), np.where(found, hit, -1).astype(np.intp)
