@@ -19,6 +19,8 @@ __all__ = [
     "cast_rays",
     "cross",
     "crossings",
+    "merge_nearest",
+    "nearest_first_pairs",
     "perpendicular_feet",
     "point_segment_distances",
     "ray_circle_distances",
@@ -226,6 +228,75 @@ def bearing_pairs(
         start = stop
 
 
+def nearest_first_pairs(
+    lo: NDArray[np.float64],
+    width: NDArray[np.float64],
+    distance: NDArray[np.float64],
+    bearing: ArrayLike,
+    reach: NDArray[np.float64],
+    limit: int = PAIRS,
+) -> Iterator[tuple[NDArray[np.intp], NDArray[np.intp]]]:
+    """(ray, surface) index pairs as :func:`bearing_pairs` gives them, the surfaces nearest the origin first.
+
+    ``distance`` is each surface's least distance from the origin; ``reach`` (one per ray) how far a surface
+    may still matter to the ray, an array the caller lowers between chunks (to the nearest hit found, or
+    to -inf once a path is known blocked): a chunk pairs its surfaces only with the rays whose reach is at
+    least the distance of its nearest surface (less a relative 1e-9 for round-off). So a ray stops being
+    tried once everything left is beyond what it has found, and a dense world costs what its near part does.
+    At most ``limit`` pairs a chunk (or one surface's).
+
+    >>> reach = np.array([np.inf, np.inf])
+    >>> chunks = nearest_first_pairs(np.zeros(3), np.full(3, 4 * np.pi), np.array([3.0, 1.0, 2.0]), [0, 1], reach, 2)
+    >>> [pair.tolist() for pair in next(chunks)]
+    [[0, 1], [1, 1]]
+    >>> reach[0] = 1.5  # ray 0 found something at 1.5: surfaces 2 and 0, further, no longer matter to it
+    >>> [[pair.tolist() for pair in chunk] for chunk in chunks]
+    [[[1, 1], [2, 0]]]
+    """
+    bearing = np.mod(np.asarray(bearing, dtype=float).reshape(-1), 2 * np.pi)
+    by_bearing = np.argsort(bearing, kind="stable")
+    nearest = np.argsort(distance, kind="stable")
+    least = distance - 1e-9 * (1 + np.abs(distance))
+    block, start = 256, 0
+    while start < len(nearest):
+        rays = by_bearing[reach[by_bearing] >= least[nearest[start]]]
+        k = len(rays)
+        if not k:
+            return
+        twice = np.concatenate([bearing[rays], bearing[rays] + 2 * np.pi])
+        surfaces = nearest[start : start + block]
+        first = np.searchsorted(twice, lo[surfaces], side="left")
+        count = np.minimum(np.searchsorted(twice, lo[surfaces] + width[surfaces], side="right") - first, k)
+        take = max(1, int(np.searchsorted(np.cumsum(count), limit, side="right")))
+        block = min(2 * block, 1 << 16) if take == len(surfaces) else block
+        surfaces, first, count = surfaces[:take], first[:take], count[:take]
+        offset = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+        yield rays[(np.repeat(first, count) + offset) % k], np.repeat(surfaces, count)
+        start += take
+
+
+def merge_nearest(
+    best: NDArray[np.float64], hit: NDArray[np.intp], ray: NDArray[np.intp], item: NDArray[np.intp], dist: ArrayLike
+) -> None:
+    """Fold (ray, item, distance) hits into each ray's nearest ``best`` and its ``hit`` (in place); of equal
+    distances the smaller item wins, as ``argmin`` over items in order would choose.
+
+    >>> best, hit = np.full(2, np.inf), np.full(2, -1)
+    >>> merge_nearest(best, hit, np.array([0, 0, 1]), np.array([4, 2, 3]), np.array([1.0, 1.0, np.inf]))
+    >>> best.tolist(), hit.tolist()
+    ([1.0, inf], [2, -1])
+    """
+    dist = np.asarray(dist, dtype=float)
+    found = np.isfinite(dist)
+    ray, item, dist = ray[found], item[found], dist[found]
+    nearest = best.copy()
+    np.minimum.at(nearest, ray, dist)
+    hit[nearest < best] = np.iinfo(hit.dtype).max  # a nearer hit: the old one is out of the running
+    tie = dist == nearest[ray]
+    np.minimum.at(hit, ray[tie], item[tie])
+    best[:] = nearest
+
+
 def ray_circle_pairs(
     origin: ArrayLike, directions: ArrayLike, centers: ArrayLike, radii: ArrayLike
 ) -> NDArray[np.float64]:
@@ -281,24 +352,26 @@ def cast_rays(
     p, q = np.asarray(p, dtype=float).reshape(-1, 2), np.asarray(q, dtype=float).reshape(-1, 2)
     centers, radii = np.asarray(centers, dtype=float).reshape(-1, 2), np.asarray(radii, dtype=float).reshape(-1)
     n = len(p)
-    # Only the surfaces whose bearing interval holds a ray's bearing can be hit by it.
+    # Only the surfaces whose bearing interval holds a ray's bearing can be hit by it, and only those no
+    # further than the ray's nearest hit so far (nor than max_range: a hit beyond it is no hit).
     slack = _ROUND_OFF * (1 + np.hypot(*(p - o).T) + np.hypot(*(q - o).T))
     lo, width = bearing_intervals(o, p, q, slack, centers, radii)
+    distance = np.concatenate([point_segment_distances(o, p, q), np.hypot(*(centers - o).T) - radii])
     best = np.full(len(angles), np.inf)
     hit = np.full(len(angles), -1, dtype=np.intp)
-    for i, j in bearing_pairs(lo, width, angles, PAIRS):
-        seg = j < n
-        t, s = crossings(o, u[i[seg]], p[j[seg]], q[j[seg]] - p[j[seg]])
-        dist = np.empty(len(i))
-        dist[seg] = np.where((t > 0) & (s >= 0) & (s <= 1), t, np.inf)
-        dist[~seg] = ray_circle_pairs(o, u[i[~seg]], centers[j[~seg] - n], radii[j[~seg] - n])
-        found = np.isfinite(dist)
-        i, j, dist = i[found], j[found], dist[found]
-        order = np.lexsort((j, dist, i))  # per ray the nearest, of equal ones the first listed
-        i, j, dist = i[order], j[order], dist[order]
-        head = np.r_[True, i[1:] != i[:-1]] if len(i) else np.zeros(0, dtype=bool)
-        i, j, dist = i[head], j[head], dist[head]
-        better = (dist < best[i]) | ((dist == best[i]) & (j < hit[i]))
-        best[i[better]], hit[i[better]] = dist[better], j[better]
+    reach = np.full(len(angles), float(max_range))
+    d = q - p
+    for i, j in nearest_first_pairs(lo, width, distance, angles, reach, PAIRS):
+        if len(radii):
+            seg = j < n
+            dist = np.empty(len(i))
+            dist[~seg] = ray_circle_pairs(o, u[i[~seg]], centers[j[~seg] - n], radii[j[~seg] - n])
+            t, s = crossings(o, u[i[seg]], p[j[seg]], d[j[seg]])
+            dist[seg] = np.where((t > 0) & (s >= 0) & (s <= 1), t, np.inf)
+        else:
+            t, s = crossings(o, u[i], p[j], d[j])
+            dist = np.where((t > 0) & (s >= 0) & (s <= 1), t, np.inf)
+        merge_nearest(best, hit, i, j, dist)
+        np.minimum(reach, best, out=reach)
     found = best <= max_range
     return np.where(found, best, np.inf), np.where(found, hit, -1).astype(np.intp)
