@@ -72,7 +72,7 @@ def test_deep_nesting_is_refused_with_the_limit() -> None:
     for depth in (MAX_DEPTH + 1, 2000, 100_000):
         with pytest.raises(
             InputError,
-            match=f"deep.yaml: line 1, column \\d+: .*nesting.*limit of {MAX_DEPTH}|deep.yaml: line 1, column \\d+: .*exceeded maximum nesting depth",
+            match=f"deep.yaml: line 1, column \\d+: nesting .*the limit of {MAX_DEPTH}",
         ):
             parse_document("[" * depth + "]" * depth, "deep.yaml")
     assert parse_document("[" * (MAX_DEPTH - 1) + "]" * (MAX_DEPTH - 1), "ok.yaml").data is not None
