@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import stat
@@ -181,3 +182,21 @@ def test_out_dot_and_read_only_and_full_disk_are_refused_before_the_work(capsys,
     assert main(["run", SMALL, "--out", str(tmp_path / "out")]) == 2
     assert "MiB free" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("where", ["evmap.maps.app.artefacts.write_figures", "evmap.maps.BeliefMap.save"])
+def test_a_disk_that_fills_up_during_the_run_is_one_line_naming_out_and_leaves_nothing(
+    capsys, tmp_path, monkeypatch, where
+):
+    """The space check before the work passed, then the file system filled up while the artefacts were written
+    (matplotlib's own error names no file): exit 2, one line naming --out, no --out and no staging left."""
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(where, full)
+    out = tmp_path / "out"
+    assert main(["run", SMALL, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1] == f"evmap: error: --out {out}: writing the artefacts failed: No space left on device", err
+    assert "Traceback" not in "\n".join(err) and list(tmp_path.iterdir()) == []

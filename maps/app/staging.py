@@ -124,10 +124,25 @@ def claim_output(
             path.chmod(0o777 & ~_UMASK)
             yield Staging(out, path)
             _commit(path, out, force, layout)
+        except OSError as exc:  # the disk filled up, or the staged files could not be written, during the run
+            if exc.errno not in _FULL and not _inside(exc.filename, path):
+                raise
+            raise OutputError(f"--out {out}: writing the artefacts failed: {exc.strerror or exc}") from None
         finally:
             shutil.rmtree(path, ignore_errors=True)
     finally:
         lock.unlink(missing_ok=True)
+
+
+_FULL = frozenset((errno.ENOSPC, errno.EDQUOT, errno.EFBIG))
+"""Errors of a file system that cannot take more, whatever file was being written."""
+
+
+def _inside(filename: object, directory: Path) -> bool:
+    """Whether ``filename`` (an OSError's, maybe None) is ``directory`` or under it."""
+    if not isinstance(filename, str | os.PathLike):
+        return False
+    return Path(filename) == directory or directory in Path(filename).parents
 
 
 def owned_entries(directory: Path, layout: Layout) -> tuple[list[str], list[str]]:
