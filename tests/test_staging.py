@@ -162,11 +162,29 @@ def test_output_problems_are_one_line_and_exit_2_before_the_work(capsys, tmp_pat
         assert (tmp_path / "out").is_symlink()  # the link is not replaced by a directory
 
 
+def test_compare_refuses_a_symbolic_link_out_before_computing_any_world(capsys, tmp_path, monkeypatch):
+    """The campaign's `compare --force --out SYMLINK`: a traceback after computing every world."""
+    (tmp_path / "target").mkdir()
+    (tmp_path / "out").symlink_to(tmp_path / "target")
+    monkeypatch.setattr("evmap.maps.app.compare.iter_results", lambda *a, **k: pytest.fail("the work started"))
+    argv = ["compare", "--worlds", "1", "--rules", "dempster", "--quiet", "--scheduler", "synchronous"]
+    assert main([*argv, "--out", str(tmp_path / "out"), "--force"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"evmap: error: --out {tmp_path / 'out'}: is a symbolic link") and err.count("\n") == 1
+    assert (tmp_path / "out").is_symlink() and list((tmp_path / "target").iterdir()) == []
+
+
 def test_out_dot_and_read_only_and_full_disk_are_refused_before_the_work(capsys, tmp_path, monkeypatch):
     monkeypatch.setattr("evmap.maps.app.run.run_scenario", lambda *a: pytest.fail("the work started"))
     monkeypatch.chdir(tmp_path)
     assert main(["run", SMALL, "--out", "."]) == 2
     assert "current directory" in capsys.readouterr().err
+    assert main(["run", SMALL, "--out", ".", "--force"]) == 2  # the campaign's traceback, and a '..old.*' left
+    assert (
+        capsys.readouterr().err
+        == "evmap: error: --out .: name a new directory, not the current directory or one above it\n"
+    )
+    assert list(tmp_path.iterdir()) == []
 
     real = os.statvfs
 
