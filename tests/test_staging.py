@@ -143,6 +143,22 @@ def test_leftovers_of_a_killed_run_are_cleaned_by_the_next(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["out"]
 
 
+def test_a_run_killed_between_the_renames_of_force_leaves_the_old_out_to_the_next(tmp_path):
+    """Killed after moving the old --out aside and before moving its own in: the next run puts the old one
+    back (it was evmap's and nothing replaced it), then refuses it without --force and replaces it with."""
+    out = tmp_path / "out"
+    write_run(out, files=("report.json", "segments.json", "map.json", "old.png"))
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True, check=True
+    )
+    out.rename(tmp_path / f".out.evmap-old-{int(dead.stdout)}")
+    with pytest.raises(OutputError, match="not empty"):
+        write_run(out)
+    assert (out / "old.png").exists() and [p.name for p in tmp_path.iterdir()] == ["out"]
+    write_run(out, force=True)
+    assert not (out / "old.png").exists() and [p.name for p in tmp_path.iterdir()] == ["out"]
+
+
 @pytest.mark.parametrize(
     ("make", "message"),
     [
