@@ -243,6 +243,12 @@ def edited_config(tmp_path: Path, old: str, new: str) -> Path:
             "frames.existence.elements",
             "missing 'noise'",
         ),
+        (
+            "elements: [real, noise] && unknown: real|noise",
+            "elements: [wall, noise] && unknown: wall|noise",
+            "frames.existence.elements",
+            "missing 'real'",
+        ),
         ("jump_threshold: 1.0         #", "jump_threshold: .inf         #", "rcd.jump_threshold", "finite number"),
         ("partly_inside: {real: 0.1", "partly: {real: 0.1", "sources.sonar_open_space", "partly"),
         (
