@@ -2,7 +2,10 @@
 
 For each limit that drives the cost, a scenario (or config) at the limit is written and
 ``evmap run`` runs on it in a fresh process, under the paper's config and the default
-config (``--figures none``; the biggest case also with png figures). Printed per case:
+config (``--figures none``; the biggest case also with png figures). The wall segments at their
+limit come in the arrangements that cost the most found: a ring all in sight, a zigzag ring (facets
+nearly edge-on, few first-order echoes, so the sonar model tries every second-order path), a dense
+clutter of crossing walls; the zigzag also under the densest sensors and a detector at its patch limit. Printed per case:
 the limit, its value, wall seconds and peak resident memory of the process, and whether
 it holds the budget of 60 s and 4 GB. The machine these numbers come from is shared (2
 cores, loaded): times may be up to about twice the quiet value, so a case over half the
@@ -16,6 +19,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import random
 import resource
 import statistics
 import subprocess
@@ -30,6 +34,7 @@ import yaml
 
 from evmap import configs
 from evmap.sources.config_model import MAX_FRAME_ELEMENTS, MAX_FRAMES, MAX_SOURCES, MAX_STAGE_SOURCES
+from evmap.sources.detector import MAX_PATCHES
 from evmap.sources.params import MAX_STRIPE_POINTS
 from evmap.sources.range_sensor import MAX_RANGE_RAYS
 from evmap.sources.sensor_kinds import MAX_SENSORS
@@ -132,6 +137,42 @@ def ring_walls(segments: int) -> str:
     return f"  walls:\n    - {{id: ring, points: [{points}, [5.0, 0.0]]}}\n"
 
 
+def zigzag_walls(segments: int) -> str:
+    """One wall: a ring around the origin whose vertices alternate between radius 6 m and 5.8 m, of ``segments``
+    segments: short facets nearly edge-on to the poses inside, concave and convex corners alternating, so that
+    most sonar readings have no first-order echo and the model tries the longest second-order paths."""
+    points = ", ".join(
+        f"[{(6 - 0.2 * (k % 2)) * math.cos(2 * math.pi * k / segments):.4f}, "
+        f"{(6 - 0.2 * (k % 2)) * math.sin(2 * math.pi * k / segments):.4f}]"
+        for k in range(segments)
+    )
+    return f"  walls:\n    - {{id: zigzag, points: [{points}, [6.0, 0.0]]}}\n"
+
+
+def scattered_walls(segments: int) -> str:
+    """One wall: a random walk (seeded) of ``segments`` steps of 2 m in a 20 m square around the origin, no step
+    within 0.3 m of the poses of :func:`inside_ring`: a dense clutter of crossing segments, every one within the
+    sonar's range, most hidden behind others (one polyline: the file stays under the size limit)."""
+    rng = random.Random(16)
+    at = inside_ring(MAX_POSES)
+    points = [(8.0, 8.0)]
+    while len(points) <= segments:
+        a = rng.uniform(0, 2 * math.pi)
+        p = points[-1]
+        q = (p[0] + 2 * math.cos(a), p[1] + 2 * math.sin(a))
+        if max(abs(q[0]), abs(q[1])) <= 10 and all(_point_segment(x, y, p, q) > 0.3 for x, y, _ in at):
+            points.append(q)
+    text = ", ".join(f"[{x:.3f}, {y:.3f}]" for x, y in points)
+    return f"  walls:\n    - {{id: clutter, points: [{text}]}}\n"
+
+
+def _point_segment(x: float, y: float, p: tuple[float, float], q: tuple[float, float]) -> float:
+    """Distance from (x, y) to the segment p-q."""
+    dx, dy = q[0] - p[0], q[1] - p[1]
+    t = max(0.0, min(1.0, ((x - p[0]) * dx + (y - p[1]) * dy) / (dx * dx + dy * dy)))
+    return math.hypot(p[0] + t * dx - x, p[1] + t * dy - y)
+
+
 def inside_ring(poses: int) -> list[tuple[float, float, float]]:
     """``poses`` poses inside the ring, on two circles."""
     return [
@@ -151,6 +192,36 @@ def walls_ring(poses: int) -> Callable[[], str]:
         return HEADER + f"name: walls-ring\nworld:\n{ring_walls(MAX_WALL_SEGMENTS)}" + poses_text(inside_ring(poses))
 
     return build
+
+
+def walls_zigzag() -> str:
+    """A zigzag ring of MAX_WALL_SEGMENTS segments around MAX_POSES poses."""
+    return (
+        HEADER + f"name: walls-zigzag\nworld:\n{zigzag_walls(MAX_WALL_SEGMENTS)}" + poses_text(inside_ring(MAX_POSES))
+    )
+
+
+def walls_scattered() -> str:
+    """MAX_WALL_SEGMENTS crossing walls of 2 m around MAX_POSES poses."""
+    return (
+        HEADER
+        + f"name: walls-scattered\nworld:\n{scattered_walls(MAX_WALL_SEGMENTS)}"
+        + poses_text(inside_ring(MAX_POSES))
+    )
+
+
+DENSEST_SENSORS = (
+    "sensors:\n  sonar: {beam_width_deg: 90, step_deg: 0.1, max_range: 100.0}\n"
+    f"  lsl: {{fov_deg: 180, snapshots: {MAX_STRIPE_POINTS // 3601}, step_deg: {360 / (MAX_STRIPE_POINTS // 3601)}, "
+    "ray_step_deg: 0.05, max_range: 100.0}\n"
+)
+"""The densest sensors allowed: an LSL scan of MAX_STRIPE_POINTS points (180-degree snapshots every 0.05 degree),
+sonar readings every 0.1 degree over a 90-degree beam, 100 m range."""
+
+
+def sensors_zigzag() -> str:
+    """The zigzag ring of MAX_WALL_SEGMENTS around MAX_POSES poses, seen by the densest sensors allowed."""
+    return walls_zigzag() + DENSEST_SENSORS
 
 
 def sensors() -> str:
@@ -289,6 +360,42 @@ def config_sensors() -> str:
     return yaml.safe_dump(data, sort_keys=False)
 
 
+def config_detector() -> str:
+    """The default config with a detector that reports every wall in patches small enough that the zigzag ring of
+    :func:`walls_zigzag` makes nearly MAX_PATCHES of them, all within its range, each detected; read by a source."""
+    data = yaml.safe_load(configs.path("default.yaml").read_text())
+    radii = [6 - 0.2 * (k % 2) for k in range(MAX_WALL_SEGMENTS)]
+    corners = [
+        (r * math.cos(2 * math.pi * k / len(radii)), r * math.sin(2 * math.pi * k / len(radii)))
+        for k, r in enumerate(radii)
+    ]
+    longest = max(math.dist(a, b) for a, b in zip(corners, corners[1:] + corners[:1], strict=True))
+    patch = max(0.01, math.ceil(longest / (MAX_PATCHES // MAX_WALL_SEGMENTS) * 1e4) / 1e4)  # no segment cut more
+    data["extra_sensors"] = {
+        "radar": {
+            "kind": "detector",
+            "materials": ["wall"],
+            "max_range": 100.0,
+            "detection": [[0.0, 1.0], [100.0, 1.0]],
+            "false_alarms": [[0.0, 0.0], [100.0, 0.0]],
+            "patch": patch,
+        }
+    }
+    data["sources"]["radar"] = {
+        "kind": "table",
+        "frame": "existence",
+        "feature": "radar_detection",
+        "categories": ["detected", "missed", "out_of_view"],
+        "table": {
+            "detected": {"real": 0.6, "unknown": 0.4},
+            "missed": {"noise": 0.5, "unknown": 0.5},
+            "out_of_view": {"unknown": 1},
+        },
+    }
+    data["stages"]["noise_elimination"].append("radar")
+    return yaml.safe_dump(data, sort_keys=False)
+
+
 CASES = (
     Case("poses-cluster", "MAX_POSES; MAX_PHANTOMS_PER_RUN", f"{MAX_POSES}; {MAX_PHANTOMS_PER_RUN}", poses_cluster),
     Case("poses-corridor", "MAX_POSES; MAX_PHANTOMS_PER_RUN", f"{MAX_POSES}; {MAX_PHANTOMS_PER_RUN}", poses_corridor),
@@ -303,6 +410,8 @@ CASES = (
     Case(
         "walls-ring-poses", "MAX_WALL_SEGMENTS; MAX_POSES", f"{MAX_WALL_SEGMENTS}; {MAX_POSES}", walls_ring(MAX_POSES)
     ),
+    Case("walls-zigzag", "MAX_WALL_SEGMENTS; MAX_POSES", f"{MAX_WALL_SEGMENTS}; {MAX_POSES}", walls_zigzag),
+    Case("walls-scattered", "MAX_WALL_SEGMENTS; MAX_POSES", f"{MAX_WALL_SEGMENTS}; {MAX_POSES}", walls_scattered),
     Case("cylinders", "MAX_CYLINDERS; MAX_POSES", f"{MAX_CYLINDERS}; {MAX_POSES}", cylinders),
     Case(
         "sunlight-regions",
@@ -318,6 +427,12 @@ CASES = (
         sensors,
     ),
     Case(
+        "sensors-zigzag",
+        "MAX_STRIPE_POINTS; MAX_WALL_SEGMENTS; MAX_POSES",
+        f"{MAX_STRIPE_POINTS}; {MAX_WALL_SEGMENTS} zigzag; sonar step 0.1 deg",
+        sensors_zigzag,
+    ),
+    Case(
         "config-limits",
         "MAX_FRAMES; MAX_FRAME_ELEMENTS; MAX_SOURCES",
         f"{MAX_FRAMES}; {MAX_FRAME_ELEMENTS}; {MAX_SOURCES}",
@@ -330,6 +445,13 @@ CASES = (
         f"{MAX_SENSORS}; {MAX_RANGE_RAYS}; {MAX_WALL_SEGMENTS}; {MAX_POSES}",
         walls_ring(MAX_POSES),
         config_sensors,
+    ),
+    Case(
+        "config-detector",
+        "MAX_PATCHES; MAX_WALL_SEGMENTS; MAX_POSES",
+        f"{MAX_PATCHES}; {MAX_WALL_SEGMENTS} zigzag; {MAX_POSES}",
+        walls_zigzag,
+        config_detector,
     ),
 )
 

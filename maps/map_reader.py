@@ -33,6 +33,7 @@ from evmap.maps.sensed import SENSED_KEY, sensed_from_json
 from evmap.sources.config import config_from_data
 from evmap.sources.conformance import MASS_TOLERANCE
 from evmap.sources.loading import InputError
+from evmap.sources.readings import MAX_COORDINATE
 
 __all__ = ["MapReader"]
 
@@ -255,11 +256,15 @@ class MapReader:
         xys = [d["xy"] for d in nodes]
         if set(map(type, xys)) <= {list, tuple} and set(map(len, xys)) <= {2}:
             flat = list(chain.from_iterable(xys))
-            if set(map(type, flat)) <= {float, int} and all(map(map_json.finite, flat)):
+            if set(map(type, flat)) <= {float, int} and all(map(_coordinate, flat)):
                 return list(zip(map(float, flat[0::2]), map(float, flat[1::2]), strict=True))
         for i, xy in enumerate(xys):
             if not (type(xy) in (list, tuple) and len(xy) == 2 and map_json.finite(xy[0]) and map_json.finite(xy[1])):
                 raise self.fail(f"nodes[{i}].xy", f"must be [x, y] with two finite numbers, got {map_json.shown(xy)}")
+            if not (_coordinate(xy[0]) and _coordinate(xy[1])):
+                raise self.fail(
+                    f"nodes[{i}].xy", f"must be within {MAX_COORDINATE:g} m of the origin, got {map_json.shown(xy)}"
+                )
         return [(float(x), float(y)) for x, y in xys]
 
     def ends(self, edges: list[dict[str, Any]], points: frozenset[str]) -> list[tuple[str, str]]:
@@ -303,6 +308,13 @@ class MapReader:
 
 
 _NO_HISTORY: list[Any] = []
+
+
+def _coordinate(value: Any) -> bool:
+    """A finite number within :data:`MAX_COORDINATE` of zero (what every point of a map must be)."""
+    return map_json.finite(value) and abs(value) <= MAX_COORDINATE
+
+
 """What :func:`_records_look_right` reads as the history of a record without one (never stored)."""
 
 

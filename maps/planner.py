@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from evidential import MassFunction
 from evmap.sources.geometry import point_segment_distances, segment_distances
+from evmap.sources.readings import MAX_COORDINATE
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
@@ -344,7 +345,14 @@ def belief_level(min_belief: float) -> float:
 
 
 def point(xy: Iterable[float], what: str) -> tuple[float, float]:
-    """``xy`` as a point of two finite floats; a ValueError naming ``what`` otherwise."""
+    """``xy`` as a point of two finite floats within :data:`~evmap.sources.readings.MAX_COORDINATE` of the
+    origin (as every reading's); a ValueError naming ``what`` otherwise.
+
+    >>> point((1e300, 1), "P")
+    Traceback (most recent call last):
+    ...
+    ValueError: P: a point must be within 1e+07 m of the origin (x and y), got (1e+300, 1.0)
+    """
     try:
         x, y = xy
         p = (float(x), float(y))
@@ -352,6 +360,8 @@ def point(xy: Iterable[float], what: str) -> tuple[float, float]:
         raise ValueError(f"{what}: a point must be (x, y), got {xy!r:.80}") from None
     if not (math.isfinite(p[0]) and math.isfinite(p[1])):
         raise ValueError(f"{what}: a point must have finite coordinates, got {p}")
+    if not (abs(p[0]) <= MAX_COORDINATE and abs(p[1]) <= MAX_COORDINATE):
+        raise ValueError(f"{what}: a point must be within {MAX_COORDINATE:g} m of the origin (x and y), got {p}")
     return p
 
 

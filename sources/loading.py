@@ -272,7 +272,10 @@ def parse_document(text: str, name: str) -> Document:
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "unknown position"
-        raise InputError(f"{name}: {where}: {exc.problem or exc.context}") from None
+        problem = exc.problem or exc.context
+        if problem and "maximum nesting depth" in problem:  # libyaml's own limit (1000), met before ours is measured
+            problem = f"nesting deeper than the limit of {MAX_DEPTH}"
+        raise InputError(f"{name}: {where}: {problem}") from None
     except yaml.YAMLError as exc:
         raise InputError(f"{name}: {exc}") from None
     except RecursionError:  # PyYAML's pure-Python composer, before the depth is measured

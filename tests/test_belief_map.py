@@ -59,6 +59,8 @@ def test_lookup_by_id_gives_line_and_point_views(bm):
         (lambda bm: bm.add_point("C2", (0, 0), "wall", mass(0.5)), ValueError, "kind must be one of"),
         (lambda bm: bm.add_point("C2", (0, np.nan), "corner", mass(0.5)), ValueError, "finite"),
         (lambda bm: bm.add_point("C2", (0, 1, 2), "corner", mass(0.5)), ValueError, r"must be \(x, y\)"),
+        (lambda bm: bm.add_point("C2", (1e300, 1), "corner", mass(0.5)), ValueError, "C2: .*within 1e\\+07 m"),
+        (lambda bm: bm.set_attrs("C1", xy=(0, -2e7)), ValueError, "C1: .*within 1e\\+07 m"),
         (lambda bm: bm.add_point("C2", (0, 0), "corner", {"real": 1.0}), TypeError, "MassFunction"),
         (lambda bm: bm.add_point("C2", (0, 0), "corner", MassFunction(Frame(["a"]), {"a": 1})), ValueError, "frame"),
         (lambda bm: bm.add_point("C2", (0, 0), "corner", mass(0.5), shape=np.float64(1)), ValueError, "C2.*float64"),

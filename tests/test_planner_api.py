@@ -236,6 +236,15 @@ def test_queries_without_obstacles_and_on_a_freshly_loaded_map(tmp_path):
         assert loaded.nearest_obstacle((499, 500)) == (1.0, "U1")
 
 
+def test_a_query_far_from_every_object_is_answered_not_searched_cell_by_cell():
+    """The campaign's case (issue 16): one object at (30000, 30000), a query at (15000, 15000)."""
+    bm = BeliefMap(FRAME)
+    bm.add_point("U1", (30000.0, 30000.0), "unidentified", mass(0.9))
+    assert bm.nearest_obstacle((15000, 15000)) == (pytest.approx(math.hypot(15000, 15000)), "U1")
+    assert bm.nearest_obstacle((-1e7, 1e7)) == (pytest.approx(math.hypot(1e7 + 30000, 1e7 - 30000)), "U1")
+    assert bm.is_segment_clear((-1e7, -1e7), (1e7, -1e7), unknown="free")
+
+
 def test_nearest_obstacle_ties_are_decided_by_id():
     bm = BeliefMap(FRAME)
     for name, xy in (("U2", (1.0, 0.0)), ("U3", (-1.0, 0.0)), ("U1", (0.0, -1.0)), ("U0", (8.0, 0.0))):
@@ -253,6 +262,9 @@ def test_nearest_obstacle_ties_are_decided_by_id():
         (lambda bm: bm.corners(min_belief="high"), "min_belief"),
         (lambda bm: bm.is_segment_clear((0, 0), (1, 1), clearance=-1), "clearance"),
         (lambda bm: bm.is_segment_clear((0, 0), (1, math.inf)), "finite"),
+        # far beyond any map (issue 16): refused, not answered wrongly by overflow nor searched for
+        (lambda bm: bm.nearest_obstacle((1e300, 0)), r"xy: .*within 1e\+07 m"),
+        (lambda bm: bm.is_segment_clear((1e300, 1), (-1e300, 1), unknown="free"), r"a: .*within 1e\+07 m"),
     ],
 )
 def test_bad_query_arguments_are_refused(bm, call, match):

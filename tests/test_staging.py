@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import stat
@@ -143,6 +144,22 @@ def test_leftovers_of_a_killed_run_are_cleaned_by_the_next(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["out"]
 
 
+def test_a_run_killed_between_the_renames_of_force_leaves_the_old_out_to_the_next(tmp_path):
+    """Killed after moving the old --out aside and before moving its own in: the next run puts the old one
+    back (it was evmap's and nothing replaced it), then refuses it without --force and replaces it with."""
+    out = tmp_path / "out"
+    write_run(out, files=("report.json", "segments.json", "map.json", "old.png"))
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True, check=True
+    )
+    out.rename(tmp_path / f".out.evmap-old-{int(dead.stdout)}")
+    with pytest.raises(OutputError, match="not empty"):
+        write_run(out)
+    assert (out / "old.png").exists() and [p.name for p in tmp_path.iterdir()] == ["out"]
+    write_run(out, force=True)
+    assert not (out / "old.png").exists() and [p.name for p in tmp_path.iterdir()] == ["out"]
+
+
 @pytest.mark.parametrize(
     ("make", "message"),
     [
@@ -162,11 +179,29 @@ def test_output_problems_are_one_line_and_exit_2_before_the_work(capsys, tmp_pat
         assert (tmp_path / "out").is_symlink()  # the link is not replaced by a directory
 
 
+def test_compare_refuses_a_symbolic_link_out_before_computing_any_world(capsys, tmp_path, monkeypatch):
+    """The campaign's `compare --force --out SYMLINK`: a traceback after computing every world."""
+    (tmp_path / "target").mkdir()
+    (tmp_path / "out").symlink_to(tmp_path / "target")
+    monkeypatch.setattr("evmap.maps.app.compare.iter_results", lambda *a, **k: pytest.fail("the work started"))
+    argv = ["compare", "--worlds", "1", "--rules", "dempster", "--quiet", "--scheduler", "synchronous"]
+    assert main([*argv, "--out", str(tmp_path / "out"), "--force"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"evmap: error: --out {tmp_path / 'out'}: is a symbolic link") and err.count("\n") == 1
+    assert (tmp_path / "out").is_symlink() and list((tmp_path / "target").iterdir()) == []
+
+
 def test_out_dot_and_read_only_and_full_disk_are_refused_before_the_work(capsys, tmp_path, monkeypatch):
     monkeypatch.setattr("evmap.maps.app.run.run_scenario", lambda *a: pytest.fail("the work started"))
     monkeypatch.chdir(tmp_path)
     assert main(["run", SMALL, "--out", "."]) == 2
     assert "current directory" in capsys.readouterr().err
+    assert main(["run", SMALL, "--out", ".", "--force"]) == 2  # the campaign's traceback, and a '..old.*' left
+    assert (
+        capsys.readouterr().err
+        == "evmap: error: --out .: name a new directory, not the current directory or one above it\n"
+    )
+    assert list(tmp_path.iterdir()) == []
 
     real = os.statvfs
 
@@ -182,3 +217,21 @@ def test_out_dot_and_read_only_and_full_disk_are_refused_before_the_work(capsys,
     assert main(["run", SMALL, "--out", str(tmp_path / "out")]) == 2
     assert "MiB free" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("where", ["evmap.maps.app.artefacts.write_figures", "evmap.maps.BeliefMap.save"])
+def test_a_disk_that_fills_up_during_the_run_is_one_line_naming_out_and_leaves_nothing(
+    capsys, tmp_path, monkeypatch, where
+):
+    """The space check before the work passed, then the file system filled up while the artefacts were written
+    (matplotlib's own error names no file): exit 2, one line naming --out, no --out and no staging left."""
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(where, full)
+    out = tmp_path / "out"
+    assert main(["run", SMALL, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1] == f"evmap: error: --out {out}: writing the artefacts failed: No space left on device", err
+    assert "Traceback" not in "\n".join(err) and list(tmp_path.iterdir()) == []

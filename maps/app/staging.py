@@ -115,10 +115,25 @@ def claim_output(
             path.chmod(0o777 & ~_UMASK)
             yield Staging(out, path)
             _commit(path, out, force, layout)
+        except OSError as exc:  # the disk filled up, or the staged files could not be written, during the run
+            if exc.errno not in _FULL and not _inside(exc.filename, path):
+                raise
+            raise OutputError(f"--out {out}: writing the artefacts failed: {exc.strerror or exc}") from None
         finally:
             shutil.rmtree(path, ignore_errors=True)
     finally:
         lock.unlink(missing_ok=True)
+
+
+_FULL = frozenset((errno.ENOSPC, errno.EDQUOT, errno.EFBIG))
+"""Errors of a file system that cannot take more, whatever file was being written."""
+
+
+def _inside(filename: object, directory: Path) -> bool:
+    """Whether ``filename`` (an OSError's, maybe None) is ``directory`` or under it."""
+    if not isinstance(filename, str | os.PathLike):
+        return False
+    return Path(filename) == directory or directory in Path(filename).parents
 
 
 def owned_entries(directory: Path, layout: Layout) -> tuple[list[str], list[str]]:
@@ -230,14 +245,20 @@ def _check_free(out: Path, free_bytes: int) -> None:
 
 
 def _clean_stale(out: Path) -> None:
-    """Remove the staging and replaced directories that dead evmap processes left beside ``out``."""
+    """Remove the staging and replaced directories that dead evmap processes left beside ``out``.
+
+    A replaced directory whose run died before its own took its place (``out`` is missing: killed between
+    the two renames of ``--force``) is put back as ``out``, as if that run had never started.
+    """
     for kind in ("stage", "old"):
-        for path in out.parent.glob(f".{glob.escape(out.name)}.evmap-{kind}-*"):
+        for path in sorted(out.parent.glob(f".{glob.escape(out.name)}.evmap-{kind}-*")):
             pid = path.name.removeprefix(f".{out.name}.evmap-{kind}-").split("-")[0]
             if not pid.isdigit() or process_alive(int(pid)) or not path.is_dir() or path.is_symlink():
                 continue
             if kind == "stage":
                 shutil.rmtree(path, ignore_errors=True)  # wholly evmap's: nobody else writes there
+            elif not os.path.lexists(out):
+                os.rename(path, out)
             else:
                 _remove_owned(path, COMPARE_LAYOUT if (path / "summary.csv").exists() else RUN_LAYOUT)
     for path in out.parent.glob(f".{glob.escape(out.name)}.evmap-lock.*"):  # a half-taken lock of a killed run

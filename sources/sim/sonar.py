@@ -35,116 +35,59 @@ max range; 1: direct; 2: a double bounce; -1: unknown, for measured data).
 
 The same :func:`simulate_scan` runs on any :class:`~evmap.sources.sim.surfaces.Surfaces`: the
 simulated world, or the line-corner map from which the fusion stage predicts a scan.
+
+The computation is exact and bounded: paths, sources and readings are paired only with the surfaces,
+targets and echoes an index finds near them, a bounded number of pairs at a time (:data:`~evmap.sources.sim.sonar_near.PAIRS`), so
+memory stays at about 100 MB and time grows with what is near, not with the square of the surfaces in
+range (every path against every segment, every mirror image against every target).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evmap.sources.geometry import crossings, perpendicular_feet, point_segment_distances, ray_circle_distances
+from evmap.sources.geometry import (
+    bearing_pairs,
+    perpendicular_feet,
+    point_segment_distances,
+)
 from evmap.sources.params import SonarParams
 from evmap.sources.readings import ScanError, SonarScan
+from evmap.sources.sim.sonar_near import (
+    EPS,
+    PAD,
+    PAIRS,
+    TOUCH,
+    Near,
+    box_array,
+    index_pairs,
+    path_blocked,
+    path_crossings,
+    second_legs_blocked,
+    surfaces_near,
+    visible_segments,
+)
 from evmap.sources.sim.surfaces import Surfaces
 
 __all__ = ["simulate_scan"]
 
-_EPS = 1e-7
-"""Tolerance on path parameters (relative): a path touching an occluder at its own ends is not blocked."""
-
-_TOUCH = 1e-9
-"""Slack on foot positions (segment parameter) and beam edges (rad), so round-off never decides an echo."""
 
 _FLAT = 1e-6
 """A vertex whose free wedge is within this of 180 deg (rad) is a point on a flat wall: no echo of its own."""
 
 
-_PARALLEL = 1e-12
-"""Lines whose directions' cross product is within this share of their lengths' product are parallel."""
+_CONE_PIECES = 8
+"""Most pieces a cone of second-order paths is cut into for the spatial index (:func:`_double_echoes`)."""
 
 
 _Echoes = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]
 """Echoes as arrays: bearing from the sensor (rad), detection half-width (rad), range (m), label index."""
 
 
-@dataclass(frozen=True)
-class _Near:
-    """The part of a Surfaces within sonar range of the sensor, with vertex wedges sorted by angle.
-
-    Candidate targets are numbered segments first, then vertices, then reflective
-    cylinders: that number indexes the label table that :func:`_near` returns.
-    """
-
-    p: NDArray[np.float64]  # (n, 2) segment ends
-    q: NDArray[np.float64]
-    reflective: NDArray[np.bool_]  # (n,)
-    v: NDArray[np.float64]  # (nv, 2) vertices of near segments
-    wedge_angle: NDArray[np.float64]  # (nv, D) directions of incident segments, sorted, padded with +inf
-    wedge_seg: NDArray[np.intp]  # (nv, D) local index of those segments
-    degree: NDArray[np.intp]  # (nv,)
-    c: NDArray[np.float64]  # (k, 2) reflective cylinders in range
-    radius: NDArray[np.float64]
-    occ_c: NDArray[np.float64]  # (ko, 2) all cylinders in range (occluders)
-    occ_r: NDArray[np.float64]
-
-
-def _near(surfaces: Surfaces, s: NDArray[np.float64], reach: float) -> tuple[_Near, NDArray[np.str_]]:
-    """Select segments, vertices and cylinders within ``reach`` of ``s``; build the label table."""
-    p_all, q_all = surfaces.p, surfaces.q
-    dist = point_segment_distances(s, p_all, q_all)
-    seg = np.flatnonzero((dist <= reach) & (p_all != q_all).any(axis=1))  # a zero-length segment is nothing
-    ends = surfaces.segments[seg]
-    verts, local = np.unique(ends.ravel(), return_inverse=True)
-    local = local.reshape(-1, 2)
-    v = surfaces.vertices[verts]
-
-    # Incidences (vertex, segment, direction away from the vertex), grouped by vertex and sorted by angle.
-    inc_v = local.ravel()
-    inc_s = np.repeat(np.arange(len(seg)), 2)
-    other = local[:, ::-1].ravel()
-    direction = v[other] - v[inc_v]
-    ang = np.arctan2(direction[:, 1], direction[:, 0])
-    order = np.lexsort((ang, inc_v))
-    inc_v, inc_s, ang = inc_v[order], inc_s[order], ang[order]
-    degree = np.bincount(inc_v, minlength=len(verts))
-    width = int(degree.max()) if len(degree) else 1
-    slot = np.arange(len(inc_v)) - np.repeat(np.cumsum(degree) - degree, degree)
-    wedge_angle = np.full((len(verts), width), np.inf)
-    wedge_seg = np.zeros((len(verts), width), dtype=np.intp)
-    wedge_angle[inc_v, slot] = ang
-    wedge_seg[inc_v, slot] = inc_s
-
-    cyl_dist = np.hypot(*(surfaces.cylinder_centers - s).T) - surfaces.cylinder_radii
-    cyl = np.flatnonzero(cyl_dist <= reach)
-    refl_cyl = cyl[surfaces.cylinder_sonar_reflective[cyl]]
-
-    labels = np.concatenate(
-        [
-            np.asarray(surfaces.segment_ids, dtype=str)[seg],
-            np.asarray(surfaces.vertex_ids, dtype=str)[verts],
-            np.asarray(surfaces.cylinder_ids, dtype=str)[refl_cyl],
-            np.array([""]),
-        ]
-    )
-    near = _Near(
-        p=p_all[seg],
-        q=q_all[seg],
-        reflective=np.asarray(surfaces.sonar_reflective, dtype=bool)[seg],
-        v=v,
-        wedge_angle=wedge_angle,
-        wedge_seg=wedge_seg,
-        degree=degree,
-        c=surfaces.cylinder_centers[refl_cyl],
-        radius=surfaces.cylinder_radii[refl_cyl],
-        occ_c=surfaces.cylinder_centers[cyl],
-        occ_r=surfaces.cylinder_radii[cyl],
-    )
-    return near, labels
-
-
-def _halfwidth(strength: NDArray[np.float64], r: NDArray[np.float64], params: SonarParams) -> NDArray[np.float64]:
+def echo_halfwidth(strength: NDArray[np.float64], r: NDArray[np.float64], params: SonarParams) -> NDArray[np.float64]:
     """Largest off-axis angle (rad) at which an echo is detected; -1 where it never is.
 
     Detected iff ``strength * exp(-2 (theta / theta0)^2) * detection_range / r >= 1``
@@ -158,7 +101,7 @@ def _halfwidth(strength: NDArray[np.float64], r: NDArray[np.float64], params: So
 
 
 def _vertex_strength(
-    near: _Near, vi: NDArray[np.intp], src: NDArray[np.float64], params: SonarParams
+    near: Near, vi: NDArray[np.intp], src: NDArray[np.float64], params: SonarParams
 ) -> NDArray[np.float64]:
     """(P,) echo strength of vertices ``vi`` (P,) seen from points ``src`` (P, 2).
 
@@ -182,49 +125,37 @@ def _vertex_strength(
     return np.where(concave, 1.0, np.where(convex, params.edge_strength, 0.0))
 
 
-def _path_crossings(
-    a: NDArray[np.float64], b: NDArray[np.float64], p: NDArray[np.float64], q: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Parameters (u along a->b, v along p->q) where the path a->b crosses the segment p->q's line.
+def _candidates(
+    near: Near, src: NDArray[np.float64], cand: NDArray[np.intp]
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Echo points of candidate targets ``cand`` (P,) seen from sources ``src`` (P, 2), before strength and occlusion.
 
-    NaN where (nearly) parallel: a segment seen exactly edge-on neither crosses nor blocks a path.
+    Candidates are numbered as the label table: the feet of the perpendiculars on the
+    segments, the vertices and the points of the cylinders nearest the source, in that
+    order. Returns points (P, 2) and whether each can answer at all (a reflective
+    segment whose foot lies on it; a cylinder the source is outside of).
     """
-    return crossings(a, b - a, p, q - p, parallel=_PARALLEL)
-
-
-def _blocked(a: NDArray[np.float64], b: NDArray[np.float64], near: _Near) -> NDArray[np.bool_]:
-    """(K,) True where the path a->b (K, 2) is crossed by a segment or a cylinder strictly between its ends."""
-    u, v = _path_crossings(a[:, None], b[:, None], near.p[None], near.q[None])
-    hit = np.any((u > _EPS) & (u < 1 - _EPS) & (v >= -_EPS) & (v <= 1 + _EPS), axis=1)
-    if len(near.occ_c):
-        t, foot = perpendicular_feet(near.occ_c[None], a[:, None], b[:, None])  # (K, C): the path's nearest points
-        d = np.hypot(foot[..., 0] - near.occ_c[:, 0], foot[..., 1] - near.occ_c[:, 1])
-        hit |= np.any((t > _EPS) & (t < 1 - _EPS) & (d < near.occ_r[None] * (1 - _EPS)), axis=1)
-    return hit
-
-
-def _candidates(near: _Near, src: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Echo points of every candidate target seen from each source, before strength and occlusion.
-
-    Candidates (C) are the feet of the perpendiculars on the segments, the vertices
-    and the points of the cylinders nearest the source, in that order (the order of
-    the label table). Returns points (S, C, 2) and whether each can answer at all
-    (a reflective segment whose foot lies on it; a cylinder the source is outside of).
-    """
-    t, foot = perpendicular_feet(src[:, None], near.p[None], near.q[None])
-    vert = np.broadcast_to(near.v[None], (len(src), len(near.v), 2))
-    rel = src[:, None] - near.c[None]
+    n, nv = len(near.p), len(near.v)
+    point = np.empty((len(cand), 2))
+    can = np.ones(len(cand), dtype=bool)
+    seg = cand < n
+    k = cand[seg]
+    t, point[seg] = perpendicular_feet(src[seg], near.p[k], near.q[k])
+    can[seg] = near.reflective[k] & (t >= -TOUCH) & (t <= 1 + TOUCH)
+    vert = (cand >= n) & (cand < n + nv)
+    point[vert] = near.v[cand[vert] - n]
+    cyl = cand >= n + nv
+    k = cand[cyl] - n - nv
+    rel = src[cyl] - near.c[k]
     dist = np.linalg.norm(rel, axis=-1)
-    outside = dist > near.radius[None]
-    cyl = near.c[None] + near.radius[None, :, None] * rel / np.where(outside, dist, 1.0)[..., None]
-    point = np.concatenate([foot, vert, cyl], axis=1)
-    on_segment = near.reflective[None] & (t >= -_TOUCH) & (t <= 1 + _TOUCH)
-    can = np.concatenate([on_segment, np.ones(vert.shape[:2], dtype=bool), outside], axis=1)
+    outside = dist > near.radius[k]
+    point[cyl] = near.c[k] + near.radius[k][:, None] * rel / np.where(outside, dist, 1.0)[:, None]
+    can[cyl] = outside
     return point, can
 
 
-def _strength(
-    near: _Near, cand: NDArray[np.intp], src: NDArray[np.float64], params: SonarParams
+def target_strength(
+    near: Near, cand: NDArray[np.intp], src: NDArray[np.float64], params: SonarParams
 ) -> NDArray[np.float64]:
     """(P,) echo strength of candidates ``cand`` (indices as in :func:`_candidates`) seen from ``src`` (P, 2)."""
     n, nv = len(near.p), len(near.v)
@@ -239,60 +170,91 @@ def _first_echo(
 ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """Per beam axis, the shortest echo within its detection half-width: (range or inf, echo index).
 
-    Ties (within round-off) go to the echo listed first.
+    Ties (within round-off) go to the echo listed first. Each echo is paired only with the beam axes
+    within its half-width (and a margin for round-off), a bounded number of pairs at a time.
     """
-    off = np.abs(np.mod(bearing[None] - angles[:, None] + np.pi, 2 * np.pi) - np.pi)
-    cand = np.where(off <= halfwidth[None] + _TOUCH, r[None], np.inf)
-    if cand.shape[1] == 0:
-        return np.full(len(angles), np.inf), np.zeros(len(angles), dtype=np.intp)
-    best = cand.min(axis=1)
+    best = np.full(len(angles), np.inf)
+    idx = np.full(len(angles), len(r), dtype=np.intp)
+    reach = halfwidth + TOUCH + 1e-9
+    lo, width = np.mod(bearing - reach, 2 * np.pi), 2 * reach
+    for rows, echo in bearing_pairs(lo, width, angles, PAIRS):
+        off = np.abs(np.mod(bearing[echo] - angles[rows] + np.pi, 2 * np.pi) - np.pi)
+        covered = off <= halfwidth[echo] + TOUCH
+        np.minimum.at(best, rows[covered], r[echo[covered]])
     # among echoes of equal range (a wall's foot at its corner), the first candidate: round-off never decides
-    idx = np.argmax(cand <= best[:, None] + _TOUCH, axis=1)
-    return best, idx
+    for rows, echo in bearing_pairs(lo, width, angles, PAIRS):
+        off = np.abs(np.mod(bearing[echo] - angles[rows] + np.pi, 2 * np.pi) - np.pi)
+        first = (off <= halfwidth[echo] + TOUCH) & (r[echo] <= best[rows] + TOUCH)
+        np.minimum.at(idx, rows[first], echo[first])
+    return best, np.where(idx < len(r), idx, 0)
 
 
-def _echoes(near: _Near, s: NDArray[np.float64], params: SonarParams) -> _Echoes:
+def _echoes(near: Near, s: NDArray[np.float64], params: SonarParams) -> _Echoes:
     """First-order echoes: bearing, half-width, range, label index of every detectable, visible target."""
-    point, can = _candidates(near, s[None])
-    point, can = point[0], can[0]
+    everything = np.arange(len(near.p) + len(near.v) + len(near.c))
+    point, can = _candidates(near, np.broadcast_to(s, (len(everything), 2)), everything)
     r = np.hypot(*(point - s).T)
-    cand = np.flatnonzero(can & (r > _EPS) & (r <= params.max_range))
-    w = _halfwidth(_strength(near, cand, np.broadcast_to(s, (len(cand), 2)), params), r[cand], params)
+    cand = np.flatnonzero(can & (r > EPS) & (r <= params.max_range))
+    w = echo_halfwidth(target_strength(near, cand, np.broadcast_to(s, (len(cand), 2)), params), r[cand], params)
     cand = cand[w >= 0]
     w = w[w >= 0]
-    seen = ~_blocked(np.broadcast_to(s, (len(cand), 2)), point[cand], near)
+    seen = ~path_blocked(np.broadcast_to(s, (len(cand), 2)), point[cand], near, near.fan)
     cand, w = cand[seen], w[seen]
     rel = point[cand] - s
     return np.arctan2(rel[:, 1], rel[:, 0]), w, r[cand], cand
 
 
-def _visible_segments(near: _Near, s: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """(n,) True for the segments that some ray from ``s`` hits first.
+def _circular_max(values: NDArray[np.float64], start: NDArray[np.intp], count: NDArray[np.intp]) -> NDArray[np.float64]:
+    """Per query, the largest of ``count`` (>= 1) consecutive ``values`` from ``start``, wrapping around (a sparse
+    table: every query in constant time).
 
-    Which segment is nearest can change only at the bearing of a segment end or of a
-    cylinder's tangent, so one ray through each angular interval between those
-    bearings decides (exact for segments that do not cross one another).
+    >>> _circular_max(np.array([1.0, 5.0, 2.0, 0.0]), np.array([2, 3, 0]), np.array([2, 2, 9])).tolist()
+    [2.0, 1.0, 5.0]
     """
-    rel = np.concatenate([near.p, near.q]) - s
-    crit = [np.arctan2(rel[:, 1], rel[:, 0])]
-    if len(near.occ_c):
-        rc = near.occ_c - s
-        centre = np.arctan2(rc[:, 1], rc[:, 0])
-        half = np.arcsin(np.clip(near.occ_r / np.hypot(rc[:, 0], rc[:, 1]), 0, 1))
-        crit += [centre - half, centre + half]
-    crit = np.unique(np.mod(np.concatenate(crit), 2 * np.pi))
-    mid = (crit + np.append(crit[1:], crit[0] + 2 * np.pi)) / 2
-    u = np.stack([np.cos(mid), np.sin(mid)], axis=1)
-    t, v = crossings(s, u[:, None], near.p, near.q - near.p, parallel=_PARALLEL)
-    dist = np.where((t > 0) & (v >= 0) & (v <= 1), t, np.inf)
-    if len(near.occ_c):
-        dist = np.concatenate([dist, ray_circle_distances(s, u, near.occ_c, near.occ_r)], axis=1)
-    first = np.argmin(dist, axis=1)[np.isfinite(dist.min(axis=1))]
-    return np.isin(np.arange(len(near.p)), first)
+    m = len(values)
+    count = np.minimum(count, m)
+    start = np.mod(start, m)
+    table = [np.concatenate([values, values])]
+    while 1 << len(table) <= m:
+        half = 1 << (len(table) - 1)
+        table.append(np.maximum(table[-1][:-half], table[-1][half:]))
+    level = np.floor(np.log2(count)).astype(np.intp)
+    out = np.empty(len(start))
+    for k in np.unique(level):
+        rows = level == k
+        s, e = start[rows], start[rows] + count[rows] - (1 << k)
+        out[rows] = np.maximum(table[k][s], table[k][e])
+    return out
+
+
+def _cone_pairs(
+    near: Near,
+    image: NDArray[np.float64],
+    pa: NDArray[np.float64],
+    qa: NDArray[np.float64],
+    near_side: NDArray[np.float64],
+    far_side: NDArray[np.float64],
+    pieces: NDArray[np.intp],
+) -> Iterator[tuple[NDArray[np.intp], ...]]:
+    """(cone, target) pairs: the targets whose boxes meet the part of each cone from ``image`` through
+    ``pa``-``qa`` between ``near_side`` and ``far_side`` times the way to the mirror, cut into ``pieces``; the
+    pieces made for a bounded number of cones at a time."""
+    ends = np.cumsum(pieces)
+    start = 0
+    while start < len(pieces):
+        stop = max(start + 1, int(np.searchsorted(ends, (ends[start - 1] if start else 0) + PAIRS // 16, "right")))
+        k = pieces[start:stop]
+        cone = np.repeat(np.arange(start, stop), k)
+        piece = np.arange(len(cone)) - np.repeat(np.cumsum(k) - k, k)
+        lam = near_side[cone] + (far_side - near_side)[cone] * np.stack([piece, piece + 1]) / pieces[cone]
+        at = image[cone]
+        corners = np.stack([at + lam[m, :, None] * (end[cone] - at) for m in (0, 1) for end in (pa, qa)])
+        yield from index_pairs(near.targets, box_array(corners.min(axis=0), corners.max(axis=0)), cone)
+        start = stop
 
 
 def _double_echoes(
-    near: _Near, s: NDArray[np.float64], params: SonarParams, angles: NDArray[np.float64], first: NDArray[np.float64]
+    near: Near, s: NDArray[np.float64], params: SonarParams, angles: NDArray[np.float64], first: NDArray[np.float64]
 ) -> _Echoes:
     """Second-order echoes by the mirror-image method, for readings where they come before ``first``.
 
@@ -300,35 +262,63 @@ def _double_echoes(
     candidate targets T gives a path sensor -> X -> T -> X -> sensor when the line from
     the image to T crosses A at X. Returns bearing (of the first leg), half-width,
     range (|image - T|) and the label index of A, for the visible, detectable paths.
+
+    Only the targets whose boxes meet the part of the cone from the image through A beyond
+    A are tried, out to the longest path that could still come first: T lies beyond A on a
+    line from the image through A, no further than that from the image.
     """
-    mir = np.flatnonzero(near.reflective & _visible_segments(near, s))
+    mir = np.flatnonzero(near.reflective & visible_segments(near, s))
     pa, qa = near.p[mir], near.q[mir]
     d = qa - pa
     normal = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.linalg.norm(d, axis=1, keepdims=True)
     h = np.einsum("ij,ij->i", s - pa, normal)
-    mir, pa, qa, normal, h = (x[np.abs(h) > _EPS] for x in (mir, pa, qa, normal, h))
+    mir, pa, qa, normal, h = (x[np.abs(h) > EPS] for x in (mir, pa, qa, normal, h))
     image = s - 2 * h[:, None] * normal
-    point, can = _candidates(near, image)
-    u, v = _path_crossings(image[:, None], point, pa[:, None], qa[:, None])
-    r = np.linalg.norm(point - image[:, None], axis=-1)
-    ok = can & (u > _EPS) & (u < 1 - _EPS) & (v >= 0) & (v <= 1) & (r <= min(params.max_range, params.detection_range))
-    ia, ic = np.nonzero(ok)
-    r, u = r[ia, ic], u[ia, ic]
-    w = _halfwidth(_strength(near, ic, image[ia], params), r, params)
+    reach_r = min(params.max_range, params.detection_range)
     # Only paths that could come before the first-order echo of some reading within the beam matter.
     step = 2 * np.pi / len(angles)
     reach = int(np.ceil(np.radians(params.beam_width_deg) / 2 / step)) + 1
     window = (np.arange(len(first))[:, None] + np.arange(-reach, reach + 1)) % len(first)
     later = first[window].max(axis=1)  # the longest first-order reading near each beam axis
-    x = image[ia] + u[:, None] * (point[ia, ic] - image[ia])
-    rel = x - s
-    bearing = np.arctan2(rel[:, 1], rel[:, 0])
-    j = np.round((bearing - angles[0]) / step).astype(np.intp) % len(angles)
-    keep = (w >= 0) & (later[j] > r)
-    ia, ic, r, w, x, bearing = (a[keep] for a in (ia, ic, r, w, x, bearing))
-    seen = ~_blocked(np.broadcast_to(s, x.shape), x, near)
-    seen[seen] = ~_blocked(x[seen], point[ia[seen], ic[seen]], near)
-    return bearing[seen], w[seen], r[seen], mir[ia[seen]]
+    # A path through A leaves the sensor at a bearing within A's (the readings of those bearings, one more
+    # each side for round-off): it is kept only if shorter than the longest of their later readings.
+    a0 = (np.arctan2(pa[:, 1] - s[1], pa[:, 0] - s[0]) - angles[0]) / step
+    span = np.mod((np.arctan2(qa[:, 1] - s[1], qa[:, 0] - s[0]) - angles[0]) / step - a0 + len(angles) / 2, len(angles))
+    lo = a0 + np.minimum(span - len(angles) / 2, 0)
+    first_j = np.floor(lo).astype(np.intp) - 1
+    count = np.ceil(lo + np.abs(span - len(angles) / 2)).astype(np.intp) + 2 - first_j
+    bound = np.minimum(reach_r, _circular_max(later, first_j, count))
+    # The target lies beyond A from the image (which is |h| from A's line), in the cone from the image through A,
+    # and the path's second leg X -> T is at most that bound less the first, |s - X| >= |s - A|: T is no further
+    # than that from A's line, between A and a side parallel to it.
+    second_leg = np.maximum(bound - point_segment_distances(s, pa, qa), 0)
+    near_side = 1 - 2 * PAD / np.abs(h)
+    far_side = 1 + (second_leg + 2 * PAD) / np.abs(h)
+    # A long thin cone is cut across into pieces about as long as it is wide (at most _CONE_PIECES), so that the
+    # index, which sees boxes, does not offer every target in the box of a long diagonal cone.
+    length = (far_side - near_side) * np.hypot(*((pa + qa) / 2 - image).T)
+    pieces = np.clip(np.ceil(length / (far_side * np.hypot(*(qa - pa).T))), 1, _CONE_PIECES).astype(np.intp)
+    echoes: list[_Echoes] = []
+    for ia, ic in _cone_pairs(near, image, pa, qa, near_side, far_side, pieces):
+        point, can = _candidates(near, image[ia], ic)
+        u, v = path_crossings(image[ia], point, pa[ia], qa[ia])
+        r = np.linalg.norm(point - image[ia], axis=-1)
+        ok = can & (u > EPS) & (u < 1 - EPS) & (v >= 0) & (v <= 1) & (r <= reach_r)
+        ia, ic, point, r, u = ia[ok], ic[ok], point[ok], r[ok], u[ok]
+        w = echo_halfwidth(target_strength(near, ic, image[ia], params), r, params)
+        x = image[ia] + u[:, None] * (point - image[ia])
+        rel = x - s
+        bearing = np.arctan2(rel[:, 1], rel[:, 0])
+        j = np.round((bearing - angles[0]) / step).astype(np.intp) % len(angles)
+        keep = (w >= 0) & (later[j] > r)
+        ia, point, r, w, x, bearing = (a[keep] for a in (ia, point, r, w, x, bearing))
+        seen = ~path_blocked(np.broadcast_to(s, x.shape), x, near, near.fan)
+        seen[seen] = ~second_legs_blocked(x[seen], point[seen], ia[seen], image, near)
+        echoes.append((bearing[seen], w[seen], r[seen], mir[ia[seen]]))
+    if not echoes:
+        return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.intp)
+    bearing, w, r, label = (np.concatenate(column) for column in zip(*echoes, strict=True))
+    return bearing, w, r, label
 
 
 def simulate_scan(
@@ -378,7 +368,7 @@ def simulate_scan(
     s = pose_arr[:2]
     m = max(1, round(360 / params.step_deg))
     angles = pose_arr[2] + np.arange(m) * (2 * np.pi / m)
-    near, labels = _near(surfaces, s, params.max_range)
+    near, labels = surfaces_near(surfaces, s, params.max_range)
 
     bearing, w, r, label = _echoes(near, s, params)
     best, idx = _first_echo(angles, bearing, w, r)
@@ -387,7 +377,7 @@ def simulate_scan(
     if max_order == 2 and len(near.p):
         bearing2, w2, r2, label2 = _double_echoes(near, s, params, angles, best)
         best2, idx2 = _first_echo(angles, bearing2, w2, r2)
-        later = best2 < best - _TOUCH
+        later = best2 < best - TOUCH
         best = np.where(later, best2, best)
         target = np.where(later, label2[idx2] if len(label2) else -1, target)
         order = np.where(later, 2, order)

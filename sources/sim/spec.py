@@ -34,13 +34,16 @@ __all__ = [
     "Text",
 ]
 
-MAX_WALL_SEGMENTS = 1_000
+MAX_WALL_SEGMENTS = 15_000
 """Most wall segments (consecutive point pairs, all polylines together) in a scenario. The sonar model's
-memory grows with the square of the segments in its range: a ring of 4,000 segments around a pose
-needs 2.6 GB, 10,000 more than 8 GB (``benchmarks/bench_limits.py``)."""
+memory no longer grows with them (it was their square: 4,000 around a pose needed 2.6 GB); its time grows
+with the paths it must try. The worst arrangement found, a zigzag ring of short facets nearly edge-on to
+the poses (most readings without a first-order echo, so every second-order path is tried), seen by the
+densest sensors from 10 poses, took 38 s and 0.2 GB on a loaded 2-core machine; 20,000 segments took up
+to 50 s (``benchmarks/bench_limits.py``)."""
 MAX_CYLINDERS = 100
-"""Most cylinders in a scenario. The run's figures draw every cylinder in every pose's figures: 1,000
-cylinders seen from 10 poses took over 150 s with png figures (``benchmarks/bench_limits.py``)."""
+"""Most cylinders in a scenario. The run's figures draw every cylinder in every pose's figures, as one
+collection: 1,000 cylinders seen from 10 poses took 27 s with png figures (101 s drawn one by one)."""
 MAX_SUNLIGHT_REGIONS = 100
 """Most sunlight regions in a scenario."""
 MAX_SUNLIGHT_LINES_PER_REGION = 200

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 from matplotlib.axes import Axes
-from matplotlib.collections import LineCollection
+from matplotlib.collections import LineCollection, PatchCollection
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, PathPatch, Polygon
 from matplotlib.path import Path as MplPath
@@ -59,9 +59,26 @@ MAX_ROBOTS = 50
 """Most robots a map figure draws one by one; beyond, their path."""
 
 
+def _polylines(p: NDArray[np.float64], q: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+    """Segments p-q (in order) joined into polylines where one ends where the next begins.
+
+    >>> [x.tolist() for x in _polylines(np.array([[0.0, 0], [1, 0], [5, 5]]), np.array([[1.0, 0], [1, 1], [6, 5]]))]
+    [[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], [[5.0, 5.0], [6.0, 5.0]]]
+    """
+    if not len(p):
+        return []
+    starts = np.flatnonzero(np.r_[True, (q[:-1] != p[1:]).any(axis=1)])
+    stops = np.r_[starts[1:], len(p)]
+    return [np.concatenate([p[a:b], q[b - 1 : b]]) for a, b in zip(starts, stops, strict=True)]
+
+
 def walls(ax: Axes, run: Run, alpha: float = 1.0) -> None:
     """The true walls of a simulated world, dashed: walls grey, LSL-transparent (glass, mirror) blue,
-    sonar-absorbing brown. Nothing for a run without a world (measured data)."""
+    sonar-absorbing brown. Nothing for a run without a world (measured data).
+
+    A wall's consecutive segments are drawn as one polyline and all cylinders as one collection: a figure
+    costs the same few artists however many segments and cylinders the world has.
+    """
     simulated = world(run)
     if simulated is None:
         return
@@ -75,16 +92,24 @@ def walls(ax: Axes, run: Run, alpha: float = 1.0) -> None:
         (absorbing, ABSORBING, 2.0, "absorbing"),
     ):
         if mask.any():
-            segments(ax, s.p[mask], s.q[mask], color=color, lw=lw, ls=DASH, alpha=alpha, gid=gid, zorder=1)
-    for xy, radius, opaque in zip(s.cylinder_centers, s.cylinder_radii, s.cylinder_lsl_opaque, strict=True):
-        ax.add_patch(
-            Circle(
-                xy,
-                radius,
-                fill=False,
-                ec=WALL if opaque else GLASS,
-                lw=1.0,
-                ls=DASH,
+            # segments of other materials in between break a polyline: only neighbours in the list are joined
+            index = np.flatnonzero(mask)
+            lines = [
+                part
+                for block in np.split(index, np.flatnonzero(np.diff(index) != 1) + 1)
+                for part in _polylines(s.p[block], s.q[block])
+            ]
+            ax.add_collection(
+                LineCollection(lines, colors=color, linewidths=lw, linestyles=DASH, alpha=alpha, gid=gid, zorder=1)
+            )
+    if len(s.cylinder_radii):
+        ax.add_collection(
+            PatchCollection(
+                [Circle(xy, radius) for xy, radius in zip(s.cylinder_centers, s.cylinder_radii, strict=True)],
+                facecolors="none",
+                edgecolors=[WALL if opaque else GLASS for opaque in s.cylinder_lsl_opaque],
+                linewidths=1.0,
+                linestyles=DASH,
                 alpha=alpha,
                 gid="cylinders",
                 zorder=1,
