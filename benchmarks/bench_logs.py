@@ -1,8 +1,8 @@
 """Whole robot logs into one belief map: time per update, its growth, peak memory, and the laser's line fit.
 
-Usage: ``python benchmarks/bench_logs.py [LOG ...]`` (default: the Intel and
-Freiburg 079 corrected logs in ``/work/shared/data/carmen``). Every scan of each
-log is read, its segments extracted with the default
+Usage: ``python benchmarks/bench_logs.py [--limit N] [LOG ...]`` (default: the
+Intel and Freiburg 079 corrected logs in ``/work/shared/data/carmen``). Every scan
+of each log (the first N with ``--limit``) is read, its segments extracted with the default
 :class:`~evmap.sources.laser.LaserParams`, scored by :mod:`evmap.sources.line_fit`
 and folded into one map (:func:`evmap.maps.app.log_run.run_log`, the
 computation of ``evmap log``). Printed per log: scans, median update (extraction
@@ -19,8 +19,8 @@ error <= 2 cm on both logs.
 
 from __future__ import annotations
 
+import argparse
 import resource
-import sys
 import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -39,12 +39,12 @@ T = TypeVar("T")
 LOGS = [DATA / "intel-corrected.log.gz", DATA / "freiburg-079-corrected.log.gz"]
 
 
-def bench(path: Path) -> dict[str, float]:
-    """The figures of one log (see the module doc)."""
+def bench(path: Path, limit: int | None = None) -> dict[str, float]:
+    """The figures of one log (see the module doc), of its first ``limit`` scans if given."""
     times: list[tuple[float, float]] = []
     start = time.perf_counter()
     config = load_config("default")
-    run = run_log(path, config, progress=lambda records: _timed(records, times))
+    run = run_log(path, config, limit=limit, progress=lambda records: _timed(records, times))
     total = time.perf_counter() - start
     per_scan, cpu = np.diff(np.array(times), axis=0).T
     tenth = max(1, len(per_scan) // 10)
@@ -77,13 +77,17 @@ def _timed(records: Iterable[T], times: list[tuple[float, float]]) -> Iterator[T
     times.append((time.perf_counter(), time.process_time()))
 
 
-def main(paths: list[str]) -> None:
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--limit", type=int, help="only the first N scans of each log")
+    parser.add_argument("logs", nargs="*", type=Path, default=LOGS)
+    args = parser.parse_args()
     print(
         f"{'log':32} {'scans':>6} {'ms/upd':>7} {'last/1st':>8} {'cpu ms':>7} {'last/1st':>8} {'peak MB':>8} "
         f"{'total s':>8} {'cover':>6} {'err cm':>6} {'lines':>6} {'related':>7}"
     )
-    for path in map(Path, paths or LOGS):
-        f = bench(path)
+    for path in args.logs:
+        f = bench(path, args.limit)
         print(
             f"{path.name:32} {f['scans']:6d} {f['median_ms']:7.1f} {f['ratio']:8.2f} {f['cpu_ms']:7.1f} "
             f"{f['cpu_ratio']:8.2f} {f['peak_mb']:8.0f} {f['total_s']:8.1f} {f['coverage']:6.3f} {f['error_cm']:6.2f} "
@@ -93,4 +97,4 @@ def main(paths: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    main()
