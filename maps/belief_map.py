@@ -233,6 +233,10 @@ class BeliefMap:
         """The open space within the box ``bounds``, and maybe some beyond it; costs what the box holds."""
         return self._space.near(bounds)
 
+    def open_space_parts_near(self, bounds: Bounds) -> shapely.GeometryCollection:
+        """:meth:`open_space_near` as a collection of polygons, maybe overlapping, not united (cheaper)."""
+        return shapely.GeometryCollection(self._space.parts_near(bounds))
+
     # ----------------------------------------------------------------- spatial index
 
     def near(self, bounds: Bounds, what: str = "all") -> set[str]:

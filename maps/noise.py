@@ -120,7 +120,7 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
         return
     ends = np.concatenate([store.p[ids], store.q[ids]])
     lo, hi = ends.min(axis=0), ends.max(axis=0)
-    space = bm.open_space_near((*lo, *hi))
+    space = bm.open_space_parts_near((*lo, *hi))
     near = _near_each(store, ids, config.merge.distance + config.merge.gap)
     seen = other_poses(
         store.p[ids], store.q[ids], store.pose[ids], store.p[near], store.q[near], store.pose[near], config.merge

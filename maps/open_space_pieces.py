@@ -3,7 +3,8 @@
 Every observation's open space is a piece; the union of all of them is made
 only when it is read whole (:meth:`OpenSpacePieces.union`), and a spatial index
 of the pieces' boxes answers what is near a box at the cost of what is there
-(:meth:`OpenSpacePieces.near`): the union of the pieces there, or, where more
+(:meth:`OpenSpacePieces.near`): the union of the pieces there (or the pieces themselves,
+:meth:`OpenSpacePieces.parts_near`), or, where more
 than :data:`MANY` pieces overlap the box (a place the robot passed again and
 again), the union of square tiles (:data:`TILE` metres a side) that each keep
 the union of what the pieces put in them, kept up to date as pieces come: a
@@ -14,8 +15,8 @@ written whenever the union is made.
 >>> import networkx as nx, shapely
 >>> space = OpenSpacePieces(nx.Graph())
 >>> space.add(shapely.box(0, 0, 2, 1)); space.add(shapely.box(1, 0, 3, 1))
->>> round(space.union().area, 6), len(space), space.near((5, 5, 6, 6)).is_empty
-(3.0, 2, True)
+>>> round(space.union().area, 6), len(space), space.near((5, 5, 6, 6)).is_empty, len(space.parts_near((0, 0, 1, 1)))
+(3.0, 2, True, 2)
 >>> space.replace(shapely.box(0, 0, 1, 1)); space.graph.graph["open_space"]["coordinates"]
 [[[[1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.0, 0.0], [1.0, 0.0]]]]
 """
@@ -91,14 +92,19 @@ class OpenSpacePieces:
 
     def near(self, bounds: Bounds) -> shapely.Geometry:
         """The open space within the box ``bounds``, and maybe some beyond it; costs what the box holds."""
+        parts = self.parts_near(bounds)
+        return shapely.union_all(parts) if parts else shapely.MultiPolygon()
+
+    def parts_near(self, bounds: Bounds) -> list[shapely.Geometry]:
+        """Polygons, maybe overlapping, whose union is :meth:`near` (what measures the open space along lines
+        needs, without the cost of uniting them)."""
         if self._index is None:
             keys = [str(k) for k in range(len(self._pieces))]
             self._index = SpatialIndex.from_boxes(keys, shapely.bounds(self._pieces))
         keys = self._index.query(bounds)
         if len(keys) > MANY:
-            return shapely.union_all([self._tile(tile, self._index) for tile in _tiles(bounds)])
-        pieces = [self._pieces[int(k)] for k in keys]
-        return shapely.union_all(pieces) if pieces else shapely.MultiPolygon()
+            return [self._tile(tile, self._index) for tile in _tiles(bounds)]
+        return [self._pieces[int(k)] for k in keys]
 
     def _tile(self, tile: Tile, index: SpatialIndex) -> shapely.Geometry:
         """The union of the pieces' parts in ``tile`` (found by ``index``), made the first time it is read."""

@@ -191,7 +191,7 @@ def _merged_evidence(
     features["lsl_other_poses"] = seen - 1
     features |= kept_features(bm, longest)
     ends = np.concatenate([store.p[pool], store.q[pool]])
-    space = bm.open_space_near((*ends.min(axis=0), *ends.max(axis=0))) if len(pool) else shapely.MultiPolygon()
+    space = bm.open_space_parts_near((*ends.min(axis=0), *ends.max(axis=0))) if len(pool) else shapely.MultiPolygon()
     return noise_evidence(merged.p, merged.q, space, config, features), seen
 
 

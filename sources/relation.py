@@ -41,7 +41,8 @@ def inside_fraction(p: ArrayLike, q: ArrayLike, open_space: shapely.Geometry) ->
     Parameters
     ----------
     p, q : (N, 2) arrays of the segments' end points (metres).
-    open_space : a shapely (multi)polygon; an empty geometry means no open space.
+    open_space : a shapely (multi)polygon, or a collection of polygons that may overlap (their union);
+        an empty geometry means no open space.
 
     Returns
     -------

@@ -332,6 +332,17 @@ def test_inside_fraction_on_grid_points_where_segments_run_along_edges(coords):
     np.testing.assert_allclose(got[long], shapely_fraction(c[long], space), atol=1e-9)
 
 
+PARTS = [ROOM, shapely.Point(3, 3).buffer(1), shapely.box(1, 1, 3.5, 2.5), shapely.box(-0.5, 0.5, 0.5, 1.5)]
+"""Overlapping polygons: a collection of them is the open space their union is."""
+
+
+@given(st.lists(st.tuples(*(NANOMETRES for _ in range(4))), min_size=1, max_size=30))
+def test_inside_fraction_of_overlapping_parts_is_that_of_their_union(coords):
+    c = np.array(coords)
+    parts = inside_fraction(c[:, :2], c[:, 2:], shapely.GeometryCollection(PARTS))
+    np.testing.assert_allclose(parts, inside_fraction(c[:, :2], c[:, 2:], shapely.union_all(PARTS)), atol=1e-9)
+
+
 @pytest.mark.parametrize(
     ("p", "q", "problem"),
     [
