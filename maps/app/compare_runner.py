@@ -47,7 +47,7 @@ __all__ = [
     "MAX_BATCH",
     "MAX_IN_FLIGHT_PER_WORKER",
     "MAX_WORLDS",
-    "batch_size",
+    "batches",
     "check_rules",
     "compare_batch",
     "compare_world",
@@ -63,7 +63,8 @@ MAX_WORLDS = 1_000_000
 
 
 MAX_BATCH = 4
-"""Most worlds per task (a world takes about 0.5-1 s with the six default rules)."""
+"""Most worlds per task (small generated worlds take a fraction of a second each; a default one several seconds
+with the six default rules)."""
 
 TASKS_PER_WORKER = 12
 """Batches are made small enough to give each worker at least this many (the last ones balance the load)."""
@@ -131,13 +132,21 @@ def compare_batch(
     return [compare_world(i, seed, rules, configs, params) for i in range(start, stop)]
 
 
-def batch_size(worlds: int, workers: int) -> int:
-    """Worlds per task: at most :data:`MAX_BATCH`, and small enough for :data:`TASKS_PER_WORKER` tasks per worker.
+def batches(worlds: int, workers: int) -> Iterator[tuple[int, int]]:
+    """The tasks' world ranges ``[start, stop)``, in order: each at most :data:`MAX_BATCH` worlds, and small enough
+    to leave :data:`TASKS_PER_WORKER` tasks per worker of what remains, so the last tasks are single worlds and the
+    workers finish together.
 
-    >>> batch_size(200, 2), batch_size(20, 2), batch_size(100_000, 64)
-    (4, 1, 4)
+    >>> [stop - start for start, stop in batches(200, 2)][:3], [stop - start for start, stop in batches(200, 2)][-3:]
+    ([4, 4, 4], [1, 1, 1])
+    >>> list(batches(3, 2)), sum(1 for _ in batches(100_000, 64))
+    ([(0, 1), (1, 2), (2, 3)], 26407)
     """
-    return max(1, min(MAX_BATCH, worlds // (workers * TASKS_PER_WORKER)))
+    start = 0
+    while start < worlds:
+        size = max(1, min(MAX_BATCH, (worlds - start) // (workers * TASKS_PER_WORKER)))
+        yield start, min(start + size, worlds)
+        start += size
 
 
 def check_rules(rules: Sequence[str] | str) -> tuple[str, ...]:
@@ -223,14 +232,13 @@ def iter_results(
             return
         bar.set_postfix_str("starting workers", refresh=True)
         with _executor(scheduler, workers) as (pool, wait, slots):
-            size = batch_size(worlds, slots)
-            starts = iter(range(0, worlds, size))
+            tasks = batches(worlds, slots)
             pending: dict[Any, int] = {}
             done: dict[int, list[WorldResult]] = {}
             following = 0
             while True:
-                while len(pending) < slots * MAX_IN_FLIGHT_PER_WORKER and (start := next(starts, None)) is not None:
-                    stop = min(start + size, worlds)
+                while len(pending) < slots * MAX_IN_FLIGHT_PER_WORKER and (task := next(tasks, None)) is not None:
+                    start, stop = task
                     pending[pool.submit(compare_batch, start, stop, seed, rules, names, params)] = start
                 if not pending:
                     return
