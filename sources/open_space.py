@@ -2,7 +2,7 @@
 
 A sonar reading is the first echo, so nothing lies closer within the sonic cone.
 Each primitive RCD gives a sector from the sensor over its beam-axis angles, plus
-half a step each side (``shared/DESIGN.md``, "Method choices"), whose radius is
+half a step each side (``docs/METHOD.md``), whose radius is
 
 - Type I: the RCD's shortest reading (the whole area of the RCD is open);
 - Types II and III: the shorter neighbouring reading (the echo point may lie

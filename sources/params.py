@@ -1,7 +1,7 @@
 """Parameters of the sensor models and of every pipeline stage, as pydantic models.
 
 Each model's defaults are the paper's values, or the defaults that
-``shared/DESIGN.md`` chose where the paper leaves a method open. The config file
+``docs/METHOD.md`` gives where the paper leaves a method open. The config file
 (``configs/paper.yaml``) and a scenario's ``sensors`` section are validated by
 these same models, so a value has one name and one range everywhere. Degrees
 and metres at this edge; the code converts to radians where it uses them.

@@ -1,7 +1,7 @@
 """Regions of constant depth (RCDs) of a rotational sonar scan, and their types (paper, II.A).
 
 An RCD (Leonard & Durrant-Whyte 1992) is a run of consecutive readings of about the
-same range. Extraction (``shared/DESIGN.md``, "Method choices"): a run grows while
+same range. Extraction (``docs/METHOD.md``): a run grows while
 every one of its readings stays within ``range_tolerance`` of the run's median.
 Runs are cut greedily along the scan; a closed (full-turn) scan wraps around and is
 cut first at its largest range jump, so a run may cross the end of the scan.
