@@ -1,14 +1,17 @@
 """Sensors declared in YAML: the kinds' features, the simulators, readings from arrays and logs, the examples."""
 
 import json
+import re
+import textwrap
 
 import numpy as np
 import pytest
 
 from evmap import configs
+from evmap.maps import new_map
 from evmap.maps.app.cli import main
 from evmap.maps.app.run import run_scenario
-from evmap.maps.observation import observe
+from evmap.maps.observation import observation_from_arrays, observe
 from evmap.sources.config import config_from_data, load_config
 from evmap.sources.loading import InputError
 from evmap.sources.open_space import open_space
@@ -153,3 +156,47 @@ def test_an_example_sensor_changes_noise_elimination_on_a_generated_world(exampl
     extra = run_scenario(world, load_config(configs.path(f"examples/{example}"))).map.segments
     noise = paper.truth == "noise"
     assert (extra.eliminated & noise).sum() > (paper.eliminated & noise).sum()
+
+
+def test_one_call_builds_an_observation_from_arrays_with_the_features_of_the_simulation():
+    """The readings a run simulates, given as arrays to observation_from_arrays, give the run's features."""
+    world, cfg = World(default_scenario()), load_config(configs.path("examples/radar.yaml"))
+    obs = observe(world, 0, cfg)
+    radar = cfg.extra_sensors["radar"]
+    readings = radar.kind.simulate(world, 0, radar.spec, sensor_rng(world, 0, "radar"), obs.lsl)
+    segments = np.stack([obs.lsl.p, obs.lsl.q], axis=1)
+    sonar = (obs.sonar.angles, obs.sonar.ranges)
+    again = observation_from_arrays(cfg, 0, obs.pose, segments, sensors={"radar": readings}, sonar=sonar)
+    assert again.features["radar_detection"].tolist() == np.asarray(obs.features["radar_detection"]).tolist()
+    assert {"detected", "missed"} <= set(again.features["radar_detection"].tolist())
+    assert np.array_equal(again.sonar.ranges, obs.sonar.ranges) and np.array_equal(again.pose, obs.pose)
+    assert set(again.lsl.truth.tolist()) == {""}  # arrays carry no ground truth
+    outcome = new_map(cfg).update(again)
+    assert len(outcome.segments) == len(obs.lsl)
+
+
+def test_observation_from_arrays_refuses_wrong_arrays_by_name():
+    cfg = load_config(configs.path("examples/infrared.yaml"))
+    wall = [[[3.0, -0.5], [3.0, 2.5]]]
+    ir = {"pose": [1, 1, 0], "angles": [0.0, 0.1], "ranges": [2.0, np.inf]}
+    with pytest.raises(ValueError, match=r"missing \['ir'\]"):
+        observation_from_arrays(cfg, 0, [1, 1, 0], wall)
+    with pytest.raises(ValueError, match=r"sensor 'ir': readings 'ranges' must have shape \('B',\), got \(1,\)"):
+        observation_from_arrays(cfg, 0, [1, 1, 0], wall, sensors={"ir": {**ir, "ranges": [2.0]}})
+    with pytest.raises(ValueError, match=r"segments must be an \(N, 2, 2\) array"):
+        observation_from_arrays(cfg, 0, [1, 1, 0], wall[0], sensors={"ir": ir})
+    with pytest.raises(ValueError, match=r"sonar: angles \(3,\) and ranges \(2,\)"):
+        observation_from_arrays(cfg, 0, [1, 1, 0], wall, sensors={"ir": ir}, sonar=([0, 1, 2], [1, 1]))
+    with pytest.raises(ValueError, match=r"robot_pose must be three finite numbers"):
+        observation_from_arrays(cfg, 0, [1, np.nan, 0], wall, sensors={"ir": ir})
+    alone = observation_from_arrays(cfg, 0, [1, 1, 0], wall, sensors={"ir": ir})
+    assert alone.sonar is None and alone.features["ir_return"].tolist() == ["echo"]
+
+
+def test_the_python_examples_of_the_sensor_readme_run_as_written():
+    """Every ```python block of configs/examples/README.md runs (the arrays example asserts its own results)."""
+    text = configs.path("examples/README.md").read_text()
+    blocks = [textwrap.dedent(b) for b in re.findall(r"^ *```python\n(.*?)^ *```", text, re.DOTALL | re.MULTILINE)]
+    assert any("observation_from_arrays" in b for b in blocks)
+    for block in blocks:
+        exec(compile(block, "configs/examples/README.md", "exec"), {"__name__": "readme_example"})  # noqa: S102 - the README's own code
