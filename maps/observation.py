@@ -115,7 +115,7 @@ def observe(world: World, pose_index: int, config: Config) -> Observation:
     rng = np.random.default_rng([world.seed, pose_index, SONAR_STREAM])
     scan = simulate_scan(world.surfaces(), world.poses[pose_index], sonar, rng=rng)
     segments, rays = observe_stripe(world, pose_index, lsl)
-    features = simulate_features(world, pose_index, config.extra_sensors, segments)
+    features = simulate_features(world, pose_index, config.extra_sensors, segments, config.name)
     return Observation(pose_index, scan, segments, features, rays=rays)
 
 

@@ -51,6 +51,10 @@ class ContourPropertySpec(SensorSpec):
         default_factory=dict, max_length=100, description="simulation: material -> [mean, std] of a point's value"
     )
 
+    def materials_named(self) -> dict[str, list[str]]:
+        """The keys of ``values`` but ``sunlight`` (the phantoms' points)."""
+        return {"values": [m for m in self.values if m != "sunlight"]}
+
 
 def contour_features(
     spec: ContourPropertySpec,

@@ -84,6 +84,10 @@ class RangeSpec(SensorSpec):
     rcd: RcdParams = RcdParams()
     open_space: OpenSpaceParams = OpenSpaceParams()
 
+    def materials_named(self) -> dict[str, list[str]]:
+        """``echo`` and ``absorb``."""
+        return {"echo": list(self.echo), "absorb": list(self.absorb)}
+
     @model_validator(mode="after")
     def _few_enough_rays(self) -> RangeSpec:
         """Refuse a sensor casting more than :data:`MAX_RANGE_RAYS` rays per pose.

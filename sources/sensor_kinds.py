@@ -68,6 +68,10 @@ class SensorSpec(BaseModel):
     kind: Text
     description: Text = Field("", max_length=2000, description="free text, shown by `evmap sources`")
 
+    def materials_named(self) -> dict[str, list[str]]:
+        """The world materials this section names, by key; a simulated run refuses those its world lacks."""
+        return {}
+
 
 @dataclass(frozen=True)
 class SensorKind:

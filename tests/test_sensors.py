@@ -200,3 +200,21 @@ def test_the_python_examples_of_the_sensor_readme_run_as_written():
     assert any("observation_from_arrays" in b for b in blocks)
     for block in blocks:
         exec(compile(block, "configs/examples/README.md", "exec"), {"__name__": "readme_example"})  # noqa: S102 - the README's own code
+
+
+def test_a_material_the_world_lacks_is_refused_naming_the_file_and_key_path(tmp_path, capsys):
+    """A misspelt material (`echo: [glas]`) would be a material nothing is made of: the run refuses it."""
+    text = configs.path("examples/infrared.yaml").read_text()
+    (tmp_path / "typo.yaml").write_text(text.replace("echo: [wall, foam]", "echo: [wall, fome]"))
+    assert main(["run", "--config", str(tmp_path / "typo.yaml"), "--out", str(tmp_path / "o"), "--no-figures"]) == 2
+    err = capsys.readouterr().err
+    assert (
+        f"{tmp_path / 'typo.yaml'}: extra_sensors.ir.echo: 'fome' is not a material of the scenario 'corridor'" in err
+    )
+    assert not (tmp_path / "o").exists()
+    data = load_config(configs.path("examples/stripe_width.yaml")).to_data()
+    values = data["extra_sensors"]["stripe"]["values"]
+    assert "wall" in values and "sunlight" in values  # the example states a distribution per material
+    data["extra_sensors"]["stripe"]["values"] = {k: v for k, v in values.items() if k != "wall"}
+    with pytest.raises(ValueError, match=r"^x: extra_sensors\.stripe: values: no \[mean, std\] for the materials"):
+        observe(World(default_scenario()), 0, config_from_data(data, "x"))
