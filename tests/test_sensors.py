@@ -218,3 +218,27 @@ def test_a_material_the_world_lacks_is_refused_naming_the_file_and_key_path(tmp_
     data["extra_sensors"]["stripe"]["values"] = {k: v for k, v in values.items() if k != "wall"}
     with pytest.raises(ValueError, match=r"^x: extra_sensors\.stripe: values: no \[mean, std\] for the materials"):
         observe(World(default_scenario()), 0, config_from_data(data, "x"))
+
+
+def test_config_check_prints_each_sensor_as_understood(capsys):
+    """Every key with its default filled in, the readings it needs, and which source reads each feature."""
+    assert main(["config", "check", str(configs.path("examples/infrared.yaml"))]) == 0
+    out = capsys.readouterr().out
+    assert "\nsensor ir (kind range, builtin; simulated in a scenario): ring of 12 IR rangers" in out
+    assert " beams=12 " in out and " rays=5 " in out and " echo=[wall, foam] absorb=[] " in out  # rays: a default
+    assert "  readings: pose (3,), angles (B,), ranges (B,)\n" in out
+    assert "ir_relation ['outside', 'partly_inside', 'inside'] read by no source" in out
+    assert "ir_return ['echo', 'beyond', 'no_return'] read by infrared\n" in out
+
+
+def test_evmap_sources_lists_each_sensor_kinds_readings_and_keys(capsys):
+    assert main(["sources"]) == 0
+    out = capsys.readouterr().out
+    assert "    readings: pose (3,), points (D, 2)\n" in out
+    assert "      materials: materials of the objects reported (required)\n" in out
+    assert "      detection: [range, P(detect)], range increasing (default [[0.0, 0.9], [4.0, 0.6]])\n" in out
+    assert "      echo: materials that return an echo (default [wall, foam])\n" in out
+    assert "      property: the property's name; the feature is NAME_PROPERTY (required)\n" in out
+    for kind in sensor_kinds().values():  # every key of every kind is listed
+        for key in set(kind.spec.model_fields) - {"kind"}:
+            assert f"\n      {key}: " in out
