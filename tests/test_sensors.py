@@ -10,6 +10,7 @@ import pytest
 from evmap import configs
 from evmap.maps import new_map
 from evmap.maps.app.cli import main
+from evmap.maps.app.figures.sensors import sensor_features_figure
 from evmap.maps.app.run import run_scenario
 from evmap.maps.observation import observation_from_arrays, observe
 from evmap.sources.config import config_from_data, load_config
@@ -141,12 +142,49 @@ def test_builtin_kinds_are_registered_once():
 
 @pytest.mark.parametrize("example", EXAMPLES)
 def test_every_example_config_runs_end_to_end(example, tmp_path, capsys):
+    """Each example passes config check, runs, and its sensor takes part: the report and segments.json carry
+    its features, which tell segments apart, and the masses of noise elimination differ from the paper's."""
     path = configs.path(f"examples/{example}")
     assert main(["config", "check", str(path)]) == 0  # what check passes, run can use (issue 16)
     capsys.readouterr()
     assert main(["run", "--config", str(path), "--out", str(tmp_path), "--no-figures", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["noise_eliminated"] == summary["noise_segments"] == 28 and summary["real_eliminated"] == 0
+    cfg = load_config(path)
+    read = {cfg.sources[name].feature for name in cfg.stages["noise_elimination"]}
+    assert set(summary["sensors"]) == set(cfg.extra_sensors)
+    for name, sensor in cfg.extra_sensors.items():
+        assert summary["sensors"][name]["kind"] == sensor.kind.name
+        for feature, categories in sensor.declares().items():
+            tally = summary["sensors"][name]["features"][feature]
+            if categories:
+                assert sum(tally["segments"].values()) == summary["lsl_segments"]
+                assert sum(tally["phantoms"].values()) == 28
+                distinct = sum(count > 0 for count in tally["segments"].values())
+            else:
+                distinct = 2 if tally["segments"]["min"] < tally["segments"]["max"] else 1
+            if feature in read:
+                assert distinct >= 2, f"{feature} says the same of every segment: it cannot take part"
+    records = json.loads((tmp_path / "segments.json").read_text())
+    declared = {f for sensor in cfg.extra_sensors.values() for f in sensor.declares()}
+    assert all(set(r["features"]) == declared for r in records)
+    paper = run_scenario(default_scenario(), load_config("paper")).map.segments
+    mass = np.array([[r["mass"].get(k, 0.0) for k in ("real", "noise", "real|noise")] for r in records])
+    assert mass.shape == (len(paper), 3) and not np.allclose(mass, paper.mass[:, 1:])
+
+
+def test_the_sensor_figure_shows_each_feature_with_the_reports_counts(tmp_path, capsys):
+    path = str(configs.path("examples/radar.yaml"))
+    assert main(["run", "--config", path, "--out", str(tmp_path / "radar"), "--json", "--figures", "png"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert (tmp_path / "radar" / "fig8_sensor_features.png").stat().st_size > 10_000
+    fig = sensor_features_figure(run_scenario(default_scenario(), load_config(path)))
+    counts = summary["sensors"]["radar"]["features"]["radar_detection"]["segments"]
+    written = ", ".join(f"{category} {n}" for category, n in counts.items())
+    assert fig.axes[0].get_title(loc="left").splitlines()[1] == f"of {summary['lsl_segments']} segments: {written}"
+    assert {c.get_gid() for c in fig.axes[0].collections} >= {"radar_detection-detected", "radar_detection-missed"}
+    assert main(["run", "--out", str(tmp_path / "plain"), "--figures", "png"]) == 0
+    assert not (tmp_path / "plain" / "fig8_sensor_features.png").exists()  # no YAML sensor, no such figure
 
 
 @pytest.mark.parametrize("example", ["infrared.yaml", "stripe_width.yaml"])
