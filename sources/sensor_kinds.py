@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from pydantic import BaseModel, ConfigDict, Field
 
+from evmap.sources.conformance import check_sensor
 from evmap.sources.evidence import SpecError, Text
 
 __all__ = [
@@ -141,7 +142,9 @@ SENSOR_KINDS: dict[str, SensorKind] = {}
 
 
 def register_sensor_kind(kind: SensorKind) -> SensorKind:
-    """Register a sensor kind, after checking it: a new name, a valid example section.
+    """Register a sensor kind, after checking it: a new name, a valid example section, and a sensor of that
+    section passing the sensor checks (:func:`evmap.sources.conformance.check_sensor`: one declared value per
+    segment, deterministic, each segment alone as in a batch).
 
     Raises
     ------
@@ -159,6 +162,10 @@ def register_sensor_kind(kind: SensorKind) -> SensorKind:
     for feature in kind.declares("x", spec):
         if not re.fullmatch(FEATURE_NAME, feature):
             raise ValueError(f"sensor kind {kind.name!r}: feature {feature!r} does not match {FEATURE_NAME}")
+    try:
+        check_sensor(DeclaredSensor("x", kind, spec), kind.arrays)
+    except Exception as exc:  # noqa: BLE001 - whatever the kind raised, it is refused, and says why
+        raise ValueError(f"sensor kind {kind.name!r} fails the sensor checks: {exc}") from None
     SENSOR_KINDS[kind.name] = kind
     return kind
 

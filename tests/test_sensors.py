@@ -1,8 +1,10 @@
 """Sensors declared in YAML: the kinds' features, the simulators, readings from arrays and logs, the examples."""
 
+import dataclasses
 import json
 import re
 import textwrap
+from typing import Literal
 
 import numpy as np
 import pytest
@@ -19,7 +21,7 @@ from evmap.sources.open_space import open_space
 from evmap.sources.plugins import sensor_kinds
 from evmap.sources.rcd import extract_rcds
 from evmap.sources.relation import relation
-from evmap.sources.sensor_kinds import SENSOR_KINDS, features_from_arrays, read_readings
+from evmap.sources.sensor_kinds import SENSOR_KINDS, features_from_arrays, read_readings, register_sensor_kind
 from evmap.sources.sim.lsl import observe_lsl
 from evmap.sources.sim.scenario import default_scenario
 from evmap.sources.sim.sensor_models import sensor_rng
@@ -280,3 +282,30 @@ def test_evmap_sources_lists_each_sensor_kinds_readings_and_keys(capsys):
     for kind in sensor_kinds().values():  # every key of every kind is listed
         for key in set(kind.spec.model_fields) - {"kind"}:
             assert f"\n      {key}: " in out
+
+
+def _kind_with(features, name="flaky"):
+    """The detector kind under another name, with other features."""
+    detector = sensor_kinds()["detector"]
+    spec = type("FlakySpec", (detector.spec,), {"__annotations__": {"kind": Literal[name]}})
+    example = {**detector.example, "kind": name}
+    return dataclasses.replace(detector, name=name, spec=spec, features=features, example=example)
+
+
+def test_a_sensor_kind_that_fails_the_sensor_checks_is_refused_at_registration_by_name():
+    rng = np.random.default_rng(0)
+    flaky = _kind_with(lambda spec, readings, p, q: {"detection": rng.choice(["detected", "missed"], len(p))})
+    with pytest.raises(ValueError, match=r"sensor kind 'flaky' fails the sensor checks: feature 'x_detection' differs"):
+        register_sensor_kind(flaky)
+    wrong = _kind_with(lambda spec, readings, p, q: {"detection": np.full(len(p), "seen")}, "wrong")
+    with pytest.raises(
+        ValueError, match=r"sensor kind 'wrong' fails .* has value 'seen' \(segment 0\); its categories"
+    ):
+        register_sensor_kind(wrong)
+
+    def batch_only(spec, readings, p, q):
+        return {"detection": np.where(np.arange(len(p)) == 0, "detected", "missed")}
+
+    with pytest.raises(ValueError, match=r"feature 'x_detection' of segment 1 is 'detected' alone but 'missed'"):
+        register_sensor_kind(_kind_with(batch_only, "batchy"))
+    assert not {"flaky", "wrong", "batchy"} & set(SENSOR_KINDS)
