@@ -3,9 +3,9 @@
 An :class:`Observation` is the input of :meth:`evmap.maps.BeliefMap.update`. It comes
 from the simulated world (:func:`observe`), from a robot log (:func:`observation_from_log`:
 the laser's segments as the contour, the log's sonar readings where it has them), or
-from other sensors: build a :class:`~evmap.sources.readings.SonarScan` with
-:meth:`~evmap.sources.readings.SonarScan.from_readings` and an
-:class:`~evmap.sources.readings.LslSegments` from the extracted line segments.
+from plain arrays measured by any robot (:func:`observation_from_arrays`: the pose, the
+contour's line segments, optionally a rotating sonar's readings and the readings of
+the config's YAML sensors).
 Without a sonar scan the pipeline skips its sonar stages (open space, simulated
 sonar, matching, reinforcement, unidentified objects).
 """
@@ -23,14 +23,21 @@ from evmap.sources.config_model import Config
 from evmap.sources.laser import LaserParams, Rays, laser_segments
 from evmap.sources.logs.scan import LogRecord, RangeReadings
 from evmap.sources.params import SonarParams
-from evmap.sources.readings import LslSegments, SonarScan
+from evmap.sources.readings import LslSegments, ScanError, SonarScan
 from evmap.sources.sensor_kinds import features_from_arrays
 from evmap.sources.sim.lsl import observe_stripe
 from evmap.sources.sim.sensor_models import simulate_features
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World
 
-__all__ = ["SONAR_STREAM", "Observation", "observation_from_log", "observe", "sonar_from_readings"]
+__all__ = [
+    "SONAR_STREAM",
+    "Observation",
+    "observation_from_arrays",
+    "observation_from_log",
+    "observe",
+    "sonar_from_readings",
+]
 
 SONAR_STREAM = 1
 """Stream number of the sonar range noise: ``default_rng([seed, pose_index, 1])``."""
@@ -108,8 +115,71 @@ def observe(world: World, pose_index: int, config: Config) -> Observation:
     rng = np.random.default_rng([world.seed, pose_index, SONAR_STREAM])
     scan = simulate_scan(world.surfaces(), world.poses[pose_index], sonar, rng=rng)
     segments, rays = observe_stripe(world, pose_index, lsl)
-    features = simulate_features(world, pose_index, config.extra_sensors, segments)
+    features = simulate_features(world, pose_index, config.extra_sensors, segments, config.name)
     return Observation(pose_index, scan, segments, features, rays=rays)
+
+
+def observation_from_arrays(
+    config: Config,
+    pose_index: int,
+    pose: ArrayLike,
+    segments: ArrayLike,
+    *,
+    sensors: Mapping[str, Mapping[str, ArrayLike]] | None = None,
+    sonar: tuple[ArrayLike, ArrayLike] | None = None,
+    rays: ArrayLike | None = None,
+) -> Observation:
+    """One pose's sensing from plain arrays: the one call that brings a robot's readings into a map.
+
+    Parameters
+    ----------
+    config : the config of the map; its ``extra_sensors`` (YAML sensors) need their readings.
+    pose_index : the pose's place in the run (0, 1, ...).
+    pose : (3,) x, y (m) and heading (rad) of the robot, world frame.
+    segments : (N, 2, 2) the contour sensor's line segments, ``[[x1, y1], [x2, y2]]`` each (m, world frame).
+    sensors : the readings of every sensor the config declares, ``{sensor: {array: values}}``, in the array
+        form of its kind (``evmap sources`` lists it; e.g. ``range``: ``pose``, ``angles``, ``ranges``).
+    sonar : ``(angles, ranges)`` of a rotating sonar at the pose, world bearings (rad) and ranges (m, the
+        sonar model's ``max_range`` or more for no echo); ``None`` skips the sonar stages.
+    rays : (K, 2) the contour sensor's rays, world bearing (rad) and range (m, NaN for no return), if known.
+
+    Raises
+    ------
+    ValueError
+        naming the array that is wrong (a sensor's readings name the sensor).
+
+    >>> from evmap import configs
+    >>> from evmap.sources.config import load_config
+    >>> cfg = load_config(configs.path("examples/radar.yaml"))
+    >>> obs = observation_from_arrays(cfg, 0, [0, 0, 0], [[[1, -1], [1, 1]], [[3, 3], [3, 4]]],
+    ...                               sensors={"radar": {"pose": [0, 0, 0], "points": [[1.0, 0.2]]}})
+    >>> obs.features["radar_detection"].tolist(), obs.sonar is None
+    (['detected', 'out_of_view'], True)
+    """
+    robot = np.asarray(pose, dtype=float)
+    ends = np.asarray(segments, dtype=float)
+    if ends.size == 0:
+        ends = ends.reshape(0, 2, 2)
+    if ends.ndim != 3 or ends.shape[1:] != (2, 2):
+        raise ScanError(f"segments must be an (N, 2, 2) array of [[x1, y1], [x2, y2]], got shape {ends.shape}")
+    n = len(ends)
+    lsl = LslSegments(
+        ends[:, 0].copy(),
+        ends[:, 1].copy(),
+        np.full(n, ""),
+        np.zeros(n, np.intp),
+        np.full(n, ""),
+        np.full(n, pose_index, np.intp),
+    )
+    scan = None
+    if sonar is not None:
+        angles, ranges = (np.asarray(a, dtype=float).reshape(-1) for a in sonar)
+        if angles.shape != ranges.shape:
+            raise ScanError(f"sonar: angles {angles.shape} and ranges {ranges.shape} must have the same shape")
+        scan = SonarScan.from_readings(angles, ranges, config.sensors.sonar, pose=robot)
+    features = features_from_arrays(config.extra_sensors, sensors or {}, lsl.p, lsl.q)
+    given = None if rays is None else np.asarray(rays, dtype=float).reshape(-1, 2)
+    return Observation(pose_index, scan, lsl, features, rays=given, robot_pose=robot)
 
 
 def observation_from_log(

@@ -43,13 +43,19 @@ class ContourPropertySpec(SensorSpec):
 
     kind: Literal["contour_property"]
     property: Name = Field(description="the property's name; the feature is NAME_PROPERTY")
-    aggregate: Literal["median", "mean", "min", "max"] = "median"
+    aggregate: Literal["median", "mean", "min", "max"] = Field(
+        "median", description="how the values of a segment's points make its feature"
+    )
     match_distance: float = Field(0.03, gt=0, le=1, description="points this close to a segment are its (m)")
     missing: Finite = Field(0.0, description="the feature of a segment without points")
     spacing: float = Field(0.02, ge=0.001, le=1, description="between two simulated points of a segment (m)")
     values: dict[Material, tuple[Finite, Annotated[float, Field(ge=0, allow_inf_nan=False)]]] = Field(
         default_factory=dict, max_length=100, description="simulation: material -> [mean, std] of a point's value"
     )
+
+    def materials_named(self) -> dict[str, list[str]]:
+        """The keys of ``values`` but ``sunlight`` (the phantoms' points)."""
+        return {"values": [m for m in self.values if m != "sunlight"]}
 
 
 def contour_features(

@@ -72,6 +72,10 @@ class DetectorSpec(SensorSpec):
     position_noise: float = Field(0.02, ge=0, le=1, description="std of a report's position (m)")
     match_distance: float = Field(0.1, gt=0, le=10, description="a report this close to a segment detects it (m)")
 
+    def materials_named(self) -> dict[str, list[str]]:
+        """``materials``."""
+        return {"materials": list(self.materials)}
+
     @model_validator(mode="after")
     def _increasing(self) -> DetectorSpec:
         for key in ("detection", "false_alarms"):

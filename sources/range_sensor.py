@@ -81,8 +81,14 @@ class RangeSpec(SensorSpec):
     pass_fraction: float = Field(0.5, gt=0, le=1, description="`beyond` if this share of a segment is free")
     inside_fraction: float = Field(0.99, gt=0, le=1, description="`inside` if this share is free")
     outside_fraction: float = Field(0.01, ge=0, lt=1, description="`outside` if at most this share is free")
-    rcd: RcdParams = RcdParams()
-    open_space: OpenSpaceParams = OpenSpaceParams()
+    rcd: RcdParams = Field(RcdParams(), description="`free_space: rcd`: how RCDs are extracted (as `rcd:`)")
+    open_space: OpenSpaceParams = Field(
+        OpenSpaceParams(), description="`free_space: rcd`: how RCDs make open space (as `open_space:`)"
+    )
+
+    def materials_named(self) -> dict[str, list[str]]:
+        """``echo`` and ``absorb``."""
+        return {"echo": list(self.echo), "absorb": list(self.absorb)}
 
     @model_validator(mode="after")
     def _few_enough_rays(self) -> RangeSpec:

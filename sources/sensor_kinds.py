@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from pydantic import BaseModel, ConfigDict, Field
 
+from evmap.sources.conformance import check_sensor
 from evmap.sources.evidence import SpecError, Text
 
 __all__ = [
@@ -67,6 +68,10 @@ class SensorSpec(BaseModel):
 
     kind: Text
     description: Text = Field("", max_length=2000, description="free text, shown by `evmap sources`")
+
+    def materials_named(self) -> dict[str, list[str]]:
+        """The world materials this section names, by key; a simulated run refuses those its world lacks."""
+        return {}
 
 
 @dataclass(frozen=True)
@@ -103,13 +108,43 @@ class SensorKind:
         """The features a sensor of this kind named ``sensor`` gives: ``{sensor_suffix: categories}``."""
         return {f"{sensor}_{suffix}": categories for suffix, categories in self.categories(spec).items()}
 
+    def describe(self) -> list[str]:
+        """What ``evmap sources`` says of the kind: origin, summary, readings, features, every YAML key.
+
+        >>> from evmap.sources.plugins import sensor_kinds
+        >>> print("\\n".join(sensor_kinds()["detector"].describe()[:4]))
+          detector  builtin; simulated: reports objects of some materials, with a detection probability and false alarms by range
+            readings: pose (3,), points (D, 2)
+            features: NAME_detection ['detected', 'missed', 'out_of_view']
+            keys (example: {kind: detector, materials: [glass]}):
+        """
+        simulated = "simulated" if self.simulate is not None else "not simulated: readings from logs or Python"
+        example = self.spec.model_validate(self.example)
+        written = ", ".join(f"{k}: {_flow(v)}" for k, v in self.example.items())
+        out = [
+            f"  {self.name}  {self.origin}; {simulated}: {self.summary}",
+            f"    readings: {', '.join(f'{a} {_shape(s)}' for a, s in self.arrays.items())}",
+            f"    features: {_features(self.declares('NAME', example))}",
+            f"    keys (example: {{{written}}}):",
+        ]
+        for key, field in self.spec.model_fields.items():
+            if key == "kind":
+                continue
+            default = (
+                "required" if field.is_required() else f"default {_flow(field.get_default(call_default_factory=True))}"
+            )
+            out.append(f"      {key}: {field.description or ''} ({default})")
+        return out
+
 
 SENSOR_KINDS: dict[str, SensorKind] = {}
 """Every kind of sensor, by the name used as ``kind:`` under ``extra_sensors``."""
 
 
 def register_sensor_kind(kind: SensorKind) -> SensorKind:
-    """Register a sensor kind, after checking it: a new name, a valid example section.
+    """Register a sensor kind, after checking it: a new name, a valid example section, and a sensor of that
+    section passing the sensor checks (:func:`evmap.sources.conformance.check_sensor`: one declared value per
+    segment, deterministic, each segment alone as in a batch).
 
     Raises
     ------
@@ -127,6 +162,10 @@ def register_sensor_kind(kind: SensorKind) -> SensorKind:
     for feature in kind.declares("x", spec):
         if not re.fullmatch(FEATURE_NAME, feature):
             raise ValueError(f"sensor kind {kind.name!r}: feature {feature!r} does not match {FEATURE_NAME}")
+    try:
+        check_sensor(DeclaredSensor("x", kind, spec), kind.arrays)
+    except Exception as exc:  # noqa: BLE001 - whatever the kind raised, it is refused, and says why
+        raise ValueError(f"sensor kind {kind.name!r} fails the sensor checks: {exc}") from None
     SENSOR_KINDS[kind.name] = kind
     return kind
 
@@ -151,6 +190,55 @@ class DeclaredSensor:
     def declares(self) -> dict[str, tuple[str, ...] | None]:
         """The features this sensor gives: ``{name: categories}``, ``None`` for a number."""
         return self.kind.declares(self.name, self.spec)
+
+    def describe(self, readers: Mapping[str, list[str]]) -> list[str]:
+        """What ``evmap config check`` says of the sensor: its kind, every key's value (defaults filled in), its
+        readings, and its features with the sources that read each (``readers``: feature -> source names).
+
+        >>> from evmap import configs
+        >>> from evmap.sources.config import load_config
+        >>> radar = load_config(configs.path("examples/radar.yaml")).extra_sensors["radar"]
+        >>> print("\\n".join(radar.describe({"radar_detection": ["radar"]})[2:]))
+          readings: pose (3,), points (D, 2)
+          features: radar_detection ['detected', 'missed', 'out_of_view'] read by radar
+        """
+        simulated = "simulated in a scenario" if self.kind.simulate is not None else "not simulated"
+        written = self.spec.model_dump(mode="json")
+        keys = " ".join(f"{k}={_flow(v)}" for k, v in written.items() if k not in ("kind", "description"))
+        features = ", ".join(
+            f"{_features({name: categories})} read by {', '.join(readers.get(name, [])) or 'no source'}"
+            for name, categories in self.declares().items()
+        )
+        return [
+            f"sensor {self.name} (kind {self.kind.name}, {self.kind.origin}; {simulated})"
+            + (f": {self.spec.description}" if self.spec.description else ""),
+            f"  {keys}",
+            f"  readings: {', '.join(f'{a} {_shape(s)}' for a, s in self.kind.arrays.items())}",
+            f"  features: {features}",
+        ]
+
+
+def _shape(shape: tuple[int | str, ...]) -> str:
+    """An array form as written in the docs: ``(3,)``, ``(D, 2)``."""
+    return f"({shape[0]},)" if len(shape) == 1 else f"({', '.join(map(str, shape))})"
+
+
+def _features(declared: Mapping[str, tuple[str, ...] | None]) -> str:
+    """Features with their categories, ``(a number)`` for a number."""
+    return ", ".join(f"{f} {list(c) if c else '(a number)'}" for f, c in declared.items())
+
+
+def _flow(value: Any) -> str:
+    """A value as YAML flow style: ``[wall, foam]``, ``{wall: [3, 0.5]}``, ``0.2``."""
+    if isinstance(value, BaseModel):
+        return _flow(value.model_dump(mode="json"))
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{k}: {_flow(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_flow(v) for v in value) + "]"
+    if isinstance(value, str):
+        return value or '""'
+    return str(value) if value is not None else "null"
 
 
 def check_readings(kind: SensorKind, readings: Mapping[str, ArrayLike], sensor: str) -> dict[str, NDArray[Any]]:

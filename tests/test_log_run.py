@@ -10,7 +10,7 @@ from evmap import configs
 from evmap.maps import new_map
 from evmap.maps.app.cli import main
 from evmap.maps.app.log_run import run_log
-from evmap.maps.app.run import run_scenario
+from evmap.maps.app.run import report, run_scenario, segment_records
 from evmap.maps.merging import related_pairs
 from evmap.maps.observation import Observation, observation_from_log
 from evmap.sources.config import load_config
@@ -133,6 +133,9 @@ def test_a_yaml_sensor_reads_its_readings_from_a_log_s_directory(tmp_path, capsy
     run = run_log(INTEL, cfg, limit=3, readings=readings)
     feature = run.map.segments.features["radar_detection"]
     assert len(feature) == len(run.map.segments) and (feature == "detected").sum() >= detected > 0
+    tally = report(run)["sensors"]["radar"]["features"]["radar_detection"]
+    assert tally["segments"]["detected"] == (feature == "detected").sum() and "phantoms" not in tally  # no truth
+    assert {r["features"]["radar_detection"] for r in segment_records(run)} >= {"detected"}
 
     config = str(configs.path("examples/radar.yaml"))
     out = tmp_path / "out"

@@ -5,6 +5,7 @@ and at once: its module and a ``.dist-info`` (``METADATA``, ``entry_points.txt``
 from its ``pyproject.toml``) in a temporary folder put on ``PYTHONPATH``.
 """
 
+import csv
 import importlib
 import re
 import shutil
@@ -13,13 +14,18 @@ import sys
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from evidential import RULES
+from evidential import RULES, Frame, MassError, MassFunction, combine, combine_batch
+from evidential.stack import Stack
 from evmap import configs
+from evmap.maps.app.run import run_scenario
+from evmap.sources.config import load_config
 from evmap.sources.evidence import KINDS
 from evmap.sources.plugins import register_plugin
 from evmap.sources.sensor_kinds import SENSOR_KINDS
+from evmap.sources.sim.scenario import default_scenario
 
 PACKAGE = Path(__file__).parent / "plugins"
 README = configs.path("examples/README.md")
@@ -142,3 +148,110 @@ def test_the_readme_shows_the_tested_plugin_package():
     readme = README.read_text()
     for path in (PACKAGE / "pyproject.toml", PACKAGE / "evmap_test_plugins" / "__init__.py"):
         assert path.read_text().strip() in readme, f"{path.name} is not shown whole in {README.name}"
+
+
+def test_evmap_compare_uses_a_plugin_rule_and_refuses_the_broken_one(site, tmp_path):
+    """`evmap compare --rules` runs the installed package's rule beside a built-in one; naming the broken one
+    stops it before any world, by the rule's name, nothing written."""
+    args = ["--worlds", "1", "--seed", "3", "--scheduler", "synchronous", "--configs", "paper"]
+    done = evmap_cli(site, "compare", "--rules", "average,dempster", *args, "--out", str(tmp_path / "a"))
+    assert done.returncode == 0, done.stderr
+    rows = list(csv.DictReader((tmp_path / "a" / "summary.csv").open()))
+    assert sorted(r["rule"] for r in rows) == ["average", "dempster"]
+    average = next(r for r in rows if r["rule"] == "average")
+    assert 0 <= float(average["noise_recall"]) <= 1 and float(average["lines"]) > 0
+    done = evmap_cli(site, "compare", "--rules", "average,doubled", *args, "--out", str(tmp_path / "b"))
+    assert done.returncode == 2
+    assert "plugin 'doubled' of evmap-test-plugins 0.1 (evmap_test_plugins:doubled) was refused" in done.stderr
+    assert "summing to 2" in done.stderr and not (tmp_path / "b").exists()
+
+
+def _average(sources, n):
+    masks = np.unique(np.concatenate([s.masks for s in sources]))
+    masses = np.zeros((len(masks), sources[0].masses.shape[1]))
+    for s in sources:
+        masses[np.searchsorted(masks, s.masks)] += s.masses
+    return Stack(masks, masses / len(sources))
+
+
+def _spoilt(how):
+    """The average, spoilt ``how`` in every column but the first: it passes the registration's probes (one
+    column each) and fails on the first batch of two or more."""
+
+    def rule(sources, n):
+        out = _average(sources, n)
+        masses = out.masses.copy()
+        if masses.shape[1] > 1:
+            if how == "negative":
+                masses[-1, 1:] += 0.3
+                masses[0, 1:] -= 0.3
+            elif how == "nan":
+                masses[0, 1:] = np.nan
+            else:  # sum off 1
+                masses[:, 1:] *= 1.01
+        return Stack(out.masks, masses)
+
+    return rule
+
+
+def _with_empty(stack, empty):
+    """``stack`` with mass ``empty`` moved to the empty set, the rest scaled down."""
+    masks = np.union1d([0], stack.masks)
+    masses = np.zeros((len(masks), stack.masses.shape[1]))
+    masses[np.searchsorted(masks, stack.masks)] = (1 - empty) * stack.masses
+    masses[0] += empty
+    return Stack(masks, masses)
+
+
+BROKEN = {
+    "negative": lambda sources, n: Stack(
+        sources[0].masks, np.where(np.arange(len(sources[0].masks))[:, None] == 0, -0.1, sources[0].masses * 1.1)
+    ),
+    "nan": lambda sources, n: Stack(sources[0].masks, np.full_like(sources[0].masses, np.nan)),
+    "sum_off": lambda sources, n: Stack(sources[0].masks, sources[0].masses * 0.99),
+    "closed_with_empty": lambda sources, n: _with_empty(sources[0], 0.2),
+}
+
+
+REFUSED = {
+    "negative": r"returned mass -0\.1 on focal set 0",
+    "nan": r"returned mass nan",
+    "sum_off": r"returned masses summing to 0\.99",
+    "closed_with_empty": r"claims a closed world but returned m\(∅\) = 0\.2",
+}
+
+
+@pytest.mark.parametrize("how", sorted(BROKEN))
+def test_a_rule_that_is_not_a_mass_function_is_refused_at_registration_by_name(how):
+    with pytest.raises(ValueError, match=rf"rule 'broken_{how}' refused: rule 'broken_{how}' {REFUSED[how]}"):
+        register_plugin("evmap.rules", f"broken_{how}", BROKEN[how], "tests")
+    assert f"broken_{how}" not in RULES
+
+
+def test_an_open_world_rule_may_leave_mass_on_the_empty_set():
+    leaky = BROKEN["closed_with_empty"]
+    leaky.rule_options = {"open_world": True, "empty_set": "as_set"}
+    try:
+        register_plugin("evmap.rules", "leaky", leaky, "tests")
+        result = combine_batch(np.array([[0.0, 0.6, 0.1, 0.3]]), np.array([[0.0, 0.2, 0.5, 0.3]]), rule="leaky")
+        assert result.shape == (1, 4) and result[0, 0] > 0
+    finally:
+        RULES.pop("leaky", None)
+
+
+@pytest.mark.parametrize("how", ["negative", "nan", "sum_off"])
+def test_a_rule_that_breaks_after_registration_is_refused_by_name_on_every_path(how):
+    """Registered (its probes pass), then caught on whatever path calls it: combine, combine_batch, a run."""
+    name = f"late_{how}"
+    register_plugin("evmap.rules", name, _spoilt(how), "tests")
+    try:
+        frame = Frame(["real", "noise"])
+        a = MassFunction(frame, {"real": 0.6, "noise": 0.1, "real|noise": 0.3})
+        assert combine(a, a, rule=name).frame == frame  # one mass function: fine
+        pair = np.array([[0.0, 0.6, 0.1, 0.3], [0.0, 0.2, 0.5, 0.3]])
+        with pytest.raises(MassError, match=rf"rule '{name}' returned"):
+            combine_batch(pair, pair, rule=name)
+        with pytest.raises(MassError, match=rf"rule '{name}' returned"):
+            run_scenario(default_scenario(), load_config().with_rule(name))
+    finally:
+        RULES.pop(name)

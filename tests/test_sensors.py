@@ -1,21 +1,27 @@
 """Sensors declared in YAML: the kinds' features, the simulators, readings from arrays and logs, the examples."""
 
+import dataclasses
 import json
+import re
+import textwrap
+from typing import Literal
 
 import numpy as np
 import pytest
 
 from evmap import configs
+from evmap.maps import new_map
 from evmap.maps.app.cli import main
+from evmap.maps.app.figures.sensors import sensor_features_figure
 from evmap.maps.app.run import run_scenario
-from evmap.maps.observation import observe
+from evmap.maps.observation import observation_from_arrays, observe
 from evmap.sources.config import config_from_data, load_config
 from evmap.sources.loading import InputError
 from evmap.sources.open_space import open_space
 from evmap.sources.plugins import sensor_kinds
 from evmap.sources.rcd import extract_rcds
 from evmap.sources.relation import relation
-from evmap.sources.sensor_kinds import SENSOR_KINDS, features_from_arrays, read_readings
+from evmap.sources.sensor_kinds import SENSOR_KINDS, features_from_arrays, read_readings, register_sensor_kind
 from evmap.sources.sim.lsl import observe_lsl
 from evmap.sources.sim.scenario import default_scenario
 from evmap.sources.sim.sensor_models import sensor_rng
@@ -138,12 +144,49 @@ def test_builtin_kinds_are_registered_once():
 
 @pytest.mark.parametrize("example", EXAMPLES)
 def test_every_example_config_runs_end_to_end(example, tmp_path, capsys):
+    """Each example passes config check, runs, and its sensor takes part: the report and segments.json carry
+    its features, which tell segments apart, and the masses of noise elimination differ from the paper's."""
     path = configs.path(f"examples/{example}")
     assert main(["config", "check", str(path)]) == 0  # what check passes, run can use (issue 16)
     capsys.readouterr()
     assert main(["run", "--config", str(path), "--out", str(tmp_path), "--no-figures", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["noise_eliminated"] == summary["noise_segments"] == 28 and summary["real_eliminated"] == 0
+    cfg = load_config(path)
+    read = {cfg.sources[name].feature for name in cfg.stages["noise_elimination"]}
+    assert set(summary["sensors"]) == set(cfg.extra_sensors)
+    for name, sensor in cfg.extra_sensors.items():
+        assert summary["sensors"][name]["kind"] == sensor.kind.name
+        for feature, categories in sensor.declares().items():
+            tally = summary["sensors"][name]["features"][feature]
+            if categories:
+                assert sum(tally["segments"].values()) == summary["lsl_segments"]
+                assert sum(tally["phantoms"].values()) == 28
+                distinct = sum(count > 0 for count in tally["segments"].values())
+            else:
+                distinct = 2 if tally["segments"]["min"] < tally["segments"]["max"] else 1
+            if feature in read:
+                assert distinct >= 2, f"{feature} says the same of every segment: it cannot take part"
+    records = json.loads((tmp_path / "segments.json").read_text())
+    declared = {f for sensor in cfg.extra_sensors.values() for f in sensor.declares()}
+    assert all(set(r["features"]) == declared for r in records)
+    paper = run_scenario(default_scenario(), load_config("paper")).map.segments
+    mass = np.array([[r["mass"].get(k, 0.0) for k in ("real", "noise", "real|noise")] for r in records])
+    assert mass.shape == (len(paper), 3) and not np.allclose(mass, paper.mass[:, 1:])
+
+
+def test_the_sensor_figure_shows_each_feature_with_the_reports_counts(tmp_path, capsys):
+    path = str(configs.path("examples/radar.yaml"))
+    assert main(["run", "--config", path, "--out", str(tmp_path / "radar"), "--json", "--figures", "png"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert (tmp_path / "radar" / "fig8_sensor_features.png").stat().st_size > 10_000
+    fig = sensor_features_figure(run_scenario(default_scenario(), load_config(path)))
+    counts = summary["sensors"]["radar"]["features"]["radar_detection"]["segments"]
+    written = ", ".join(f"{category} {n}" for category, n in counts.items())
+    assert fig.axes[0].get_title(loc="left").splitlines()[1] == f"of {summary['lsl_segments']} segments: {written}"
+    assert {c.get_gid() for c in fig.axes[0].collections} >= {"radar_detection-detected", "radar_detection-missed"}
+    assert main(["run", "--out", str(tmp_path / "plain"), "--figures", "png"]) == 0
+    assert not (tmp_path / "plain" / "fig8_sensor_features.png").exists()  # no YAML sensor, no such figure
 
 
 @pytest.mark.parametrize("example", ["infrared.yaml", "stripe_width.yaml"])
@@ -153,3 +196,116 @@ def test_an_example_sensor_changes_noise_elimination_on_a_generated_world(exampl
     extra = run_scenario(world, load_config(configs.path(f"examples/{example}"))).map.segments
     noise = paper.truth == "noise"
     assert (extra.eliminated & noise).sum() > (paper.eliminated & noise).sum()
+
+
+def test_one_call_builds_an_observation_from_arrays_with_the_features_of_the_simulation():
+    """The readings a run simulates, given as arrays to observation_from_arrays, give the run's features."""
+    world, cfg = World(default_scenario()), load_config(configs.path("examples/radar.yaml"))
+    obs = observe(world, 0, cfg)
+    radar = cfg.extra_sensors["radar"]
+    readings = radar.kind.simulate(world, 0, radar.spec, sensor_rng(world, 0, "radar"), obs.lsl)
+    segments = np.stack([obs.lsl.p, obs.lsl.q], axis=1)
+    sonar = (obs.sonar.angles, obs.sonar.ranges)
+    again = observation_from_arrays(cfg, 0, obs.pose, segments, sensors={"radar": readings}, sonar=sonar)
+    assert again.features["radar_detection"].tolist() == np.asarray(obs.features["radar_detection"]).tolist()
+    assert {"detected", "missed"} <= set(again.features["radar_detection"].tolist())
+    assert np.array_equal(again.sonar.ranges, obs.sonar.ranges) and np.array_equal(again.pose, obs.pose)
+    assert set(again.lsl.truth.tolist()) == {""}  # arrays carry no ground truth
+    outcome = new_map(cfg).update(again)
+    assert len(outcome.segments) == len(obs.lsl)
+
+
+def test_observation_from_arrays_refuses_wrong_arrays_by_name():
+    cfg = load_config(configs.path("examples/infrared.yaml"))
+    wall = [[[3.0, -0.5], [3.0, 2.5]]]
+    ir = {"pose": [1, 1, 0], "angles": [0.0, 0.1], "ranges": [2.0, np.inf]}
+    with pytest.raises(ValueError, match=r"missing \['ir'\]"):
+        observation_from_arrays(cfg, 0, [1, 1, 0], wall)
+    with pytest.raises(ValueError, match=r"sensor 'ir': readings 'ranges' must have shape \('B',\), got \(1,\)"):
+        observation_from_arrays(cfg, 0, [1, 1, 0], wall, sensors={"ir": {**ir, "ranges": [2.0]}})
+    with pytest.raises(ValueError, match=r"segments must be an \(N, 2, 2\) array"):
+        observation_from_arrays(cfg, 0, [1, 1, 0], wall[0], sensors={"ir": ir})
+    with pytest.raises(ValueError, match=r"sonar: angles \(3,\) and ranges \(2,\)"):
+        observation_from_arrays(cfg, 0, [1, 1, 0], wall, sensors={"ir": ir}, sonar=([0, 1, 2], [1, 1]))
+    with pytest.raises(ValueError, match=r"robot_pose must be three finite numbers"):
+        observation_from_arrays(cfg, 0, [1, np.nan, 0], wall, sensors={"ir": ir})
+    alone = observation_from_arrays(cfg, 0, [1, 1, 0], wall, sensors={"ir": ir})
+    assert alone.sonar is None and alone.features["ir_return"].tolist() == ["echo"]
+
+
+def test_the_python_examples_of_the_sensor_readme_run_as_written():
+    """Every ```python block of configs/examples/README.md runs (the arrays example asserts its own results)."""
+    text = configs.path("examples/README.md").read_text()
+    blocks = [textwrap.dedent(b) for b in re.findall(r"^ *```python\n(.*?)^ *```", text, re.DOTALL | re.MULTILINE)]
+    assert any("observation_from_arrays" in b for b in blocks)
+    for block in blocks:
+        exec(compile(block, "configs/examples/README.md", "exec"), {"__name__": "readme_example"})  # noqa: S102 - the README's own code
+
+
+def test_a_material_the_world_lacks_is_refused_naming_the_file_and_key_path(tmp_path, capsys):
+    """A misspelt material (`echo: [glas]`) would be a material nothing is made of: the run refuses it."""
+    text = configs.path("examples/infrared.yaml").read_text()
+    (tmp_path / "typo.yaml").write_text(text.replace("echo: [wall, foam]", "echo: [wall, fome]"))
+    assert main(["run", "--config", str(tmp_path / "typo.yaml"), "--out", str(tmp_path / "o"), "--no-figures"]) == 2
+    err = capsys.readouterr().err
+    assert (
+        f"{tmp_path / 'typo.yaml'}: extra_sensors.ir.echo: 'fome' is not a material of the scenario 'corridor'" in err
+    )
+    assert not (tmp_path / "o").exists()
+    data = load_config(configs.path("examples/stripe_width.yaml")).to_data()
+    values = data["extra_sensors"]["stripe"]["values"]
+    assert "wall" in values and "sunlight" in values  # the example states a distribution per material
+    data["extra_sensors"]["stripe"]["values"] = {k: v for k, v in values.items() if k != "wall"}
+    with pytest.raises(ValueError, match=r"^x: extra_sensors\.stripe: values: no \[mean, std\] for the materials"):
+        observe(World(default_scenario()), 0, config_from_data(data, "x"))
+
+
+def test_config_check_prints_each_sensor_as_understood(capsys):
+    """Every key with its default filled in, the readings it needs, and which source reads each feature."""
+    assert main(["config", "check", str(configs.path("examples/infrared.yaml"))]) == 0
+    out = capsys.readouterr().out
+    assert "\nsensor ir (kind range, builtin; simulated in a scenario): ring of 12 IR rangers" in out
+    assert " beams=12 " in out and " rays=5 " in out and " echo=[wall, foam] absorb=[] " in out  # rays: a default
+    assert "  readings: pose (3,), angles (B,), ranges (B,)\n" in out
+    assert "ir_relation ['outside', 'partly_inside', 'inside'] read by no source" in out
+    assert "ir_return ['echo', 'beyond', 'no_return'] read by infrared\n" in out
+
+
+def test_evmap_sources_lists_each_sensor_kinds_readings_and_keys(capsys):
+    assert main(["sources"]) == 0
+    out = capsys.readouterr().out
+    assert "    readings: pose (3,), points (D, 2)\n" in out
+    assert "      materials: materials of the objects reported (required)\n" in out
+    assert "      detection: [range, P(detect)], range increasing (default [[0.0, 0.9], [4.0, 0.6]])\n" in out
+    assert "      echo: materials that return an echo (default [wall, foam])\n" in out
+    assert "      property: the property's name; the feature is NAME_PROPERTY (required)\n" in out
+    for kind in sensor_kinds().values():  # every key of every kind is listed
+        for key in set(kind.spec.model_fields) - {"kind"}:
+            assert f"\n      {key}: " in out
+
+
+def _kind_with(features, name="flaky"):
+    """The detector kind under another name, with other features."""
+    detector = sensor_kinds()["detector"]
+    spec = type("FlakySpec", (detector.spec,), {"__annotations__": {"kind": Literal[name]}})
+    example = {**detector.example, "kind": name}
+    return dataclasses.replace(detector, name=name, spec=spec, features=features, example=example)
+
+
+def test_a_sensor_kind_that_fails_the_sensor_checks_is_refused_at_registration_by_name():
+    rng = np.random.default_rng(0)
+    flaky = _kind_with(lambda spec, readings, p, q: {"detection": rng.choice(["detected", "missed"], len(p))})
+    with pytest.raises(ValueError, match=r"sensor kind 'flaky' fails the sensor checks: feature 'x_detection' differs"):
+        register_sensor_kind(flaky)
+    wrong = _kind_with(lambda spec, readings, p, q: {"detection": np.full(len(p), "seen")}, "wrong")
+    with pytest.raises(
+        ValueError, match=r"sensor kind 'wrong' fails .* has value 'seen' \(segment 0\); its categories"
+    ):
+        register_sensor_kind(wrong)
+
+    def batch_only(spec, readings, p, q):
+        return {"detection": np.where(np.arange(len(p)) == 0, "detected", "missed")}
+
+    with pytest.raises(ValueError, match=r"feature 'x_detection' of segment 1 is 'detected' alone but 'missed'"):
+        register_sensor_kind(_kind_with(batch_only, "batchy"))
+    assert not {"flaky", "wrong", "batchy"} & set(SENSOR_KINDS)

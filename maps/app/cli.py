@@ -212,11 +212,7 @@ def list_sources(args: argparse.Namespace) -> int:
     out += [f"  {name}  {origin_of('evmap.source_kinds', name)}" for name in sorted(KINDS)]
     out.append("sensor kinds (`kind:` of a section under `extra_sensors`; NAME is the sensor's name):")
     for name in sorted(sensors):
-        kind = sensors[name]
-        declared = kind.declares("NAME", kind.spec.model_validate(kind.example))
-        features = ", ".join(f"{f} {list(c) if c else '(a number)'}" for f, c in declared.items())
-        simulated = "simulated" if kind.simulate is not None else "not simulated: readings from logs or Python"
-        out += [f"  {name}  {kind.origin}; {simulated}: {kind.summary}", f"    features: {features}"]
+        out += sensors[name].describe()
     out += [f"refused: {p.group.removeprefix('evmap.')} {p.name} from {p.origin}: {p.problem}" for p in refused]
     print("\n".join(out))
     return 0

@@ -26,6 +26,11 @@ def describe_config(cfg: Config) -> str:
         out.append(f"frame {name}{role}: {', '.join(frame.elements)}")
         for alias, written in cfg.aliases[name].items():
             out.append(f"  alias {alias} = {_label(frame, frame.mask(written))}")
+    readers: dict[str, list[str]] = {}
+    for name, source in cfg.sources.items():
+        readers.setdefault(source.feature, []).append(name)
+    for sensor in cfg.extra_sensors.values():
+        out += ["", *sensor.describe(readers)]
     for name in cfg.sources:
         out += ["", *_describe_source(cfg, name)]
     out += ["", f"stages (combined by {cfg.rule}):"]

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from evmap.maps import new_map
 from evmap.maps.app.metrics import share
@@ -111,7 +112,47 @@ def report(run: Run) -> dict[str, Any]:
         "noise_recall": share(store.eliminated & noise, noise),
         "real_loss": share(store.eliminated & real, real),
         "seconds": dict(run.seconds),
-    }
+    } | sensors_report(run)
+
+
+def sensors_report(run: Run) -> dict[str, Any]:
+    """``report.json``'s ``sensors``, if the config declares YAML sensors: per sensor its kind and per feature,
+    how many of the run's raw segments took each category, or a number's min / median / max (``segments``),
+    and where the truth is known, the same over the sunlight phantoms (``phantoms``).
+
+    >>> from evmap import configs
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.scenario import default_scenario
+    >>> report = sensors_report(run_scenario(default_scenario(), load_config(configs.path("examples/radar.yaml"))))
+    >>> radar = report["sensors"]["radar"]
+    >>> radar["kind"], radar["features"]["radar_detection"]["segments"], radar["features"]["radar_detection"]["phantoms"]
+    ('detector', {'detected': 28, 'missed': 24, 'out_of_view': 14}, {'detected': 0, 'missed': 21, 'out_of_view': 7})
+    """
+    if not run.config.extra_sensors:
+        return {}
+    store: SegmentStore = run.map.segments
+    raw = store.role != "support"
+    truth_known = bool(np.isin(store.truth[raw], ("real", "noise")).all())
+    phantom = store.truth[raw] == "noise"
+
+    def tally(values: NDArray[Any], categories: tuple[str, ...] | None) -> dict[str, Any]:
+        if categories is None:
+            numbers = values.astype(float)
+            return {"min": float(numbers.min()), "median": float(np.median(numbers)), "max": float(numbers.max())}
+        return {c: int((values == c).sum()) for c in categories}
+
+    out: dict[str, Any] = {}
+    for name, sensor in run.config.extra_sensors.items():
+        features: dict[str, Any] = {}
+        for feature, categories in sensor.declares().items():
+            values = store.features[feature][raw] if feature in store.features else np.zeros(0, dtype=str)
+            if not len(values):
+                continue
+            features[feature] = {"segments": tally(values, categories)}
+            if truth_known and phantom.any():
+                features[feature]["phantoms"] = tally(values[phantom], categories)
+        out[name] = {"kind": sensor.kind.name, "features": features}
+    return {"sensors": out}
 
 
 def segment_records(run: Run) -> list[dict[str, Any]]:
@@ -124,6 +165,8 @@ def segment_records(run: Run) -> list[dict[str, Any]]:
     store: SegmentStore = run.map.segments
     frame = run.map.frame
     labels = [frame.label(mask) for mask in range(store.mass.shape[1])]
+    features = store.features
+    extra = [{name: column[i].item() for name, column in features.items()} for i in range(len(store))]
     return [
         {
             "id": i,
@@ -134,6 +177,7 @@ def segment_records(run: Run) -> list[dict[str, Any]]:
             "relation": str(store.relation[i]),
             "mass": {labels[m]: float(v) for m, v in enumerate(store.mass[i]) if v > 0 or labels[m] != ""},
             "eliminated": bool(store.eliminated[i]),
+            **({"features": extra[i]} if features else {}),
         }
         for i in np.flatnonzero(store.role != "support").tolist()
     ]
@@ -174,4 +218,4 @@ def _log_report(run: Run, log: LogSummary) -> dict[str, Any]:
         "real_loss": None,
         "line_fit": {"coverage_mean": log.coverage_mean, "rms_error_median": log.rms_error_median},
         "seconds": {"total": run.seconds["total"], "per_scan_median": log.per_scan_median},
-    }
+    } | sensors_report(run)

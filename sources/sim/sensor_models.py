@@ -45,6 +45,7 @@ from evmap.sources.sim.world import World, wall_id
 __all__ = [
     "BUILTIN_SENSOR_KINDS",
     "SENSOR_STREAM",
+    "check_materials",
     "materials",
     "sensor_rng",
     "simulate_contour",
@@ -159,7 +160,7 @@ def simulate_contour(
     ]
     unknown = sorted(set(material) - set(spec.values))
     if unknown:
-        raise ValueError(f"kind contour_property: `values` has no [mean, std] for the materials {unknown}")
+        raise ValueError(f"values: no [mean, std] for the materials {unknown} that the stripe saw")
     count = np.maximum(np.ceil(lsl.length / spec.spacing).astype(np.intp) + 1, 2)
     owner = np.repeat(np.arange(len(lsl)), count)
     t = (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)) / np.repeat(count - 1, count)
@@ -170,9 +171,13 @@ def simulate_contour(
 
 
 def simulate_features(
-    world: World, pose_index: int, sensors: dict[str, DeclaredSensor], lsl: LslSegments
+    world: World, pose_index: int, sensors: dict[str, DeclaredSensor], lsl: LslSegments, where: str = ""
 ) -> dict[str, NDArray[Any]]:
     """The features of every declared sensor for the pose's LSL segments, from readings simulated in the world.
+
+    ``where`` (the config's name) begins an error about a sensor's section: a material the world does not
+    have (a misspelt ``echo: [glas]`` would otherwise be a material that nothing is made of), or a
+    simulator's refusal.
 
     >>> from evmap import configs
     >>> from evmap.sources.config import load_config
@@ -185,15 +190,46 @@ def simulate_features(
     ['ir_relation', 'ir_return']
     """
     out: dict[str, NDArray[Any]] = {}
+    check_materials(world, sensors, where)
     for name, sensor in sensors.items():
         if sensor.kind.simulate is None:
             raise ValueError(
                 f"sensor {name!r} ({sensor.kind.name}): its kind has no simulator; bring its readings from a log "
                 "or from Python (evmap.sources.sensor_kinds.features_from_arrays)"
             )
-        readings = sensor.kind.simulate(world, pose_index, sensor.spec, sensor_rng(world, pose_index, name), lsl)
+        try:
+            readings = sensor.kind.simulate(world, pose_index, sensor.spec, sensor_rng(world, pose_index, name), lsl)
+        except ValueError as exc:
+            raise ValueError(f"{where + ': ' if where else ''}extra_sensors.{name}: {exc}") from None
         out.update(sensor.features(readings, lsl.p, lsl.q))
     return out
+
+
+def check_materials(world: World, sensors: dict[str, DeclaredSensor], where: str = "") -> None:
+    """Refuse a sensor section naming a material the world does not have, at its key path.
+
+    >>> import dataclasses
+    >>> from evmap import configs
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.scenario import default_scenario
+    >>> ir = load_config(configs.path("examples/infrared.yaml")).extra_sensors["ir"]
+    >>> typo = {"ir": dataclasses.replace(ir, spec=RangeSpec(kind="range", echo=["glas"]))}
+    >>> check_materials(World(default_scenario()), typo, "my.yaml")
+    Traceback (most recent call last):
+    ...
+    ValueError: my.yaml: extra_sensors.ir.echo: 'glas' is not a material of the scenario 'corridor' (its materials: foam, glass, mirror, wall)
+    """
+    known = set(world.materials)
+    for name, sensor in sensors.items():
+        for key, named in sensor.spec.materials_named().items():
+            unknown = [m for m in named if m not in known]
+            if unknown:
+                listed = ", ".join(repr(m) for m in unknown)
+                raise ValueError(
+                    f"{where + ': ' if where else ''}extra_sensors.{name}.{key}: {listed} "
+                    f"{'is not a material' if len(unknown) == 1 else 'are not materials'} of the scenario "
+                    f"{world.scenario.name!r} (its materials: {', '.join(sorted(known))})"
+                )
 
 
 BUILTIN_SENSOR_KINDS: tuple[SensorKind, ...] = (

@@ -35,6 +35,9 @@ file                           function                     paper      what it s
                                                                        ``rcds_matched``)
 ``fig7_final_map``             :func:`final_map_figure`     Fig. 7     the final map, line width by Bel(real),
                                                                        landmarks emphasised, ``unidentified`` objects
+``fig8_sensor_features``       ``sensor_features_figure``   (new)      what each YAML sensor's feature said of every
+                                                                       segment (report's ``sensors``); only for a
+                                                                       config that declares sensors
 =============================  ===========================  =========  =================================================
 
 :func:`write_figures` writes them as ``png`` (150 dpi), ``svg`` or ``pdf``
@@ -59,6 +62,7 @@ if TYPE_CHECKING:
     from evmap.maps.app.figures.lsl import lsl_lines_figure, noise_figure
     from evmap.maps.app.figures.matching import rcd_matching_figure
     from evmap.maps.app.figures.scan import open_space_figure, sonar_scan_figure
+    from evmap.maps.app.figures.sensors import sensor_features_figure
 
 __all__ = [
     "FIGURE_FILES",
@@ -69,6 +73,7 @@ __all__ = [
     "noise_figure",
     "open_space_figure",
     "rcd_matching_figure",
+    "sensor_features_figure",
     "sonar_scan_figure",
     "write_figures",
 ]
@@ -84,6 +89,7 @@ HOMES = {
     "rcd_matching_figure": "matching",
     "open_space_figure": "scan",
     "sonar_scan_figure": "scan",
+    "sensor_features_figure": "sensors",
 }
 """Public name -> the module of this package that defines it, imported when the name is first used."""
 
