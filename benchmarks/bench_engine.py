@@ -24,18 +24,25 @@ is not installed is skipped with a line saying so. Install the peers with
 
 For frames of up to 16 elements, the row "numpy floor (kernel)" times the
 engine's pairwise sums alone (intersections, products, one ``bincount``, one
-scan), without objects or normalisation: what numpy cannot go below.
+scan), without objects or normalisation: what numpy cannot go below. Below the
+rows, ours and the floor are timed again call by call (:func:`call_by_call`):
+one call of each, back to back, which one first alternating, a thousand times,
+so that every pair of calls sees the same load; printed as ours / floor, the
+median of the pairs' ratios with its quartiles and the ratio of the fastest
+calls (timeit's advice: the minimum is what the machine does unhindered), in
+wall-clock and in CPU time (``time.thread_time``).
 
 Each workload runs in a fresh process, ours and its peers together; ours is
 also timed alone in a fresh process that loads no peer (the "alone" row), as a
 user of evidential runs it: loading torch changes how the process allocates
 memory, and a benchmark that only ran beside it could flatter us.
 
-Run: ``python benchmarks/bench_engine.py``
+Run: ``python benchmarks/bench_engine.py`` (``--only c`` for workload (c) alone, ``--only ce`` for two).
 """
 
 from __future__ import annotations
 
+import argparse
 import multiprocessing
 import time
 import tracemalloc
@@ -76,6 +83,43 @@ class Row(NamedTuple):
     """Seconds per call, median of the rounds."""
     ratios: np.ndarray
     """This implementation's time over ours, round by round."""
+    notes: tuple[str, ...] = ()
+    """Lines printed below the workload's rows."""
+
+
+FLOOR_PAIRS = 1000
+"""Pairs of calls (ours, the floor) of :func:`call_by_call`."""
+
+
+def call_by_call(ours: Callable[[], object], floor: Callable[[], object], pairs: int = FLOOR_PAIRS) -> np.ndarray:
+    """Seconds per call of ours and of the floor, pair by pair: (pairs, 2, 2) for (ours, floor) x (wall, CPU).
+
+    Each pair is one call of each, back to back (ours first in even pairs, the
+    floor first in odd ones), so that both see the same state of the machine:
+    its load changes over seconds, a pair lasts a millisecond.
+    """
+    for f in (ours, floor, ours, floor):
+        f()
+    calls = (ours, floor)
+    times = np.empty((pairs, 2, 2))
+    for i in range(pairs):
+        for j in (0, 1) if i % 2 == 0 else (1, 0):
+            f = calls[j]
+            c, t = time.thread_time_ns(), time.perf_counter_ns()
+            f()
+            times[i, j] = time.perf_counter_ns() - t, time.thread_time_ns() - c
+    return times / 1e9
+
+
+def floor_note(times: np.ndarray) -> str:
+    """ours / floor from :func:`call_by_call`: the median of the pairs' ratios (quartiles), the ratio of the minima."""
+    parts = []
+    for clock, k in (("wall", 0), ("CPU", 1)):
+        ratios = times[:, 0, k] / times[:, 1, k]
+        q1, median, q3 = np.quantile(ratios, [0.25, 0.5, 0.75])
+        fastest = times[:, 0, k].min() / times[:, 1, k].min()
+        parts.append(f"{clock} {median:.2f}x ({q1:.2f}-{q3:.2f}), fastest {fastest:.2f}x")
+    return f"ours / numpy floor, {len(times)} pairs of calls back to back: " + "; ".join(parts)
 
 
 def orders(k: int) -> list[list[int]]:
@@ -161,6 +205,7 @@ def sparse_workload(n: int, k: int, rng: np.random.Generator) -> list[Row]:
             return np.flatnonzero(table != 0)
 
         impls.append(("numpy floor (kernel)", bare_kernel))
+        pairs = call_by_call(impls[0][1], bare_kernel)
     slow: list[Impl] = []
     if tb is not None:
         s1 = tb.SparseMass(torch.from_numpy(a), torch.from_numpy(wa), n)
@@ -178,7 +223,10 @@ def sparse_workload(n: int, k: int, rng: np.random.Generator) -> list[Row]:
         p1 = pyds.MassFunction(dict(zip(sets(a), wa.tolist())))
         p2 = pyds.MassFunction(dict(zip(sets(b), wb.tolist())))
         (impls if n <= 3 else slow).append(("pyds", lambda: p1.combine_conjunctive(p2)))
-    return measured(impls, slow)
+    rows = measured(impls, slow)
+    if n <= 16:
+        rows[0] = rows[0]._replace(notes=(floor_note(pairs),))
+    return rows
 
 
 def batch_workload(rng: np.random.Generator, pairs: int = 10_000) -> list[Row]:
@@ -310,6 +358,9 @@ def in_fresh_process(index: int, peers: bool) -> list[Row]:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.partition("\n")[0])
+    parser.add_argument("--only", default="", help="the letters of the workloads to run (default: all)")
+    only = parser.parse_args().only
     load_peers()
     if pyds is None:
         print("pyds not installed: skipped (pip install py-dempster-shafer==0.7)")
@@ -317,6 +368,8 @@ def main() -> None:
         print("torchbelief not installed: skipped (pip install torchbelief==0.3.0 torch==2.13.0)")
     print(f"{'workload':36} {'implementation':22} {'median':>12} {'peer / ours':>12} {'rounds':>14}")
     for index, title in enumerate(WORKLOADS):
+        if only and title[1] not in only:
+            continue
         rows = in_fresh_process(index, peers=True)
         alone = in_fresh_process(index, peers=False)[0]._replace(name="evidential alone")
         for row in [rows[0], alone, *rows[1:]]:
@@ -325,6 +378,8 @@ def main() -> None:
                 ratio = f"{row.median / rows[0].median:11.1f}x"
                 spread = f"{row.ratios.min():.1f}-{row.ratios.max():.1f}x"
             print(f"{title:36} {row.name:22} {row.median * 1e6:10.1f}us {ratio:>12} {spread:>14}")
+        for note in rows[0].notes:
+            print(f"{title:36} {note}")
 
 
 if __name__ == "__main__":

@@ -44,7 +44,7 @@ from evidential.measures import (
 )
 from evidential.product import marginalize, product_frame, vacuous_extension
 from evidential.refinement import coarsen, refine
-from evidential.rules import PROPERTIES, RULES, Rule, register_rule
+from evidential.registry import PROPERTIES, RULES, Rule, register_rule
 from evidential.stack import Stack
 from evidential.view import plot, table
 

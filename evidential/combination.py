@@ -13,8 +13,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from evidential.columns import COLUMN_MAX_BITS, dempster_columns
 from evidential.errors import FrameError, MassError, TotalConflictError
-from evidential.mass import SUM_TOLERANCE, MassFunction
-from evidential.rules import RULES, Rule, RuleFunction, conjunctive, dempster
+from evidential.mass import MassFunction
+from evidential.registry import RULES, Rule, RuleFunction
+from evidential.rules import conjunctive, dempster
 from evidential.stack import (
     Stack,
     dempster_fold,
@@ -22,6 +23,7 @@ from evidential.stack import (
     full,
     to_dense,
 )
+from evidential.validation import SUM_TOLERANCE
 
 
 def _resolve(rule: str | RuleFunction) -> RuleFunction:
@@ -57,7 +59,7 @@ def combine(*masses: MassFunction, rule: str | RuleFunction = "dempster") -> Mas
     *masses : MassFunction
         One or more mass functions over the same frame.
     rule : str or callable
-        A name in :data:`~evidential.rules.RULES` or a function ``(sources, n) -> Stack``.
+        A name in :data:`~evidential.registry.RULES` or a function ``(sources, n) -> Stack``.
 
     Examples
     --------

@@ -15,8 +15,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from evidential.errors import MassError
 from evidential.frame import Frame
-from evidential.mass import SUM_TOLERANCE, MassFunction
+from evidential.mass import MassFunction
 from evidential.transforms import commonality, implicability, mass_from_commonality, mass_from_implicability
+from evidential.validation import SUM_TOLERANCE
 
 
 def conjunctive_weights(m: MassFunction) -> NDArray[np.float64]:

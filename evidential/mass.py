@@ -1,8 +1,11 @@
-"""Mass functions: sparse arrays of focal set bitmasks and masses over a frame."""
+"""Mass functions: sparse arrays of focal set bitmasks and masses over a frame.
+
+The value type; its inputs are checked by :mod:`evidential.validation`, its belief,
+plausibility and commonality queries are the functions of :mod:`evidential.queries`.
+"""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Iterator, Mapping
 from itertools import repeat
 from numbers import Real
@@ -10,17 +13,14 @@ from numbers import Real
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from evidential import queries
 from evidential.elements import element_masses
 from evidential.errors import FrameError, MassError, TotalConflictError
 from evidential.frame import Focal, Frame
+from evidential.queries import Query
 from evidential.rules import dempster
 from evidential.stack import DENSE_MAX_BITS, Stack
-
-SUM_TOLERANCE = 1e-9
-"""Largest accepted distance of the total mass from 1."""
-
-QUERY_INT32_BITS = 31
-"""Up to this many elements, the batched queries test int32 bitmasks."""
+from evidential.validation import checked_mapping, checked_rows, read_only
 
 
 class MassFunction:
@@ -66,29 +66,8 @@ class MassFunction:
     __slots__ = ("_stack", "frame")
 
     def __init__(self, frame: Frame, masses: Mapping[Focal, float], *, open_world: bool = False) -> None:
-        if not isinstance(frame, Frame):
-            raise FrameError(f"frame must be a Frame, got {type(frame).__name__}")
-        found: dict[int, tuple[Focal, float]] = {}
-        for focal, value in masses.items():
-            mask = frame.mask(focal)
-            if not isinstance(value, Real) or isinstance(value, bool) or not math.isfinite(value) or value < 0:
-                raise MassError(f"mass of focal set {focal!r} must be a finite number >= 0, got {value!r}")
-            if mask in found:
-                raise MassError(f"focal set {frame.label(mask)!r} is given twice: as {found[mask][0]!r} and {focal!r}")
-            found[mask] = (focal, float(value))
-        if not open_world and found.get(0, (None, 0.0))[1] > 0:
-            raise MassError(
-                f"mass on the empty set '' is {found[0][1]!r}; only open-world masses (open_world=True) have it"
-            )
-        total = math.fsum(value for _, value in found.values())
-        if abs(total - 1.0) > SUM_TOLERANCE:
-            listing = ", ".join(f"{frame.label(k)!r}: {v!r}" for k, (_, v) in sorted(found.items()))
-            raise MassError(f"masses must sum to 1 (within {SUM_TOLERANCE}), got {total!r} over {{{listing}}}")
-        keep = sorted((k, v) for k, (_, v) in found.items() if v > 0)
+        self._stack = checked_mapping(frame, masses, open_world=open_world)
         self.frame = frame
-        self._stack = _read_only(
-            np.array([k for k, _ in keep], dtype=frame.dtype), np.array([[v] for _, v in keep], dtype=np.float64)
-        )
 
     @classmethod
     def from_stack(cls, frame: Frame, stack: Stack, column: int = 0, *, positive: bool = False) -> MassFunction:
@@ -97,12 +76,12 @@ class MassFunction:
         ``positive``: the masses are known to be > 0 (a kernel's output), not even that is checked.
         """
         if positive:
-            return cls._new(frame, _read_only(stack.masks, stack.masses[:, column : column + 1]))
+            return cls._new(frame, read_only(stack.masks, stack.masses[:, column : column + 1]))
         values = stack.masses[:, column]
         keep = values > 0
         if keep.all():
-            return cls._new(frame, _read_only(stack.masks, stack.masses[:, column : column + 1]))
-        return cls._new(frame, _read_only(stack.masks[keep], values[keep][:, None]))
+            return cls._new(frame, read_only(stack.masks, stack.masses[:, column : column + 1]))
+        return cls._new(frame, read_only(stack.masks[keep], values[keep][:, None]))
 
     @classmethod
     def _new(cls, frame: Frame, stack: Stack) -> MassFunction:
@@ -146,34 +125,7 @@ class MassFunction:
         >>> [m.to_dict() for m in MassFunction.from_rows(frame, ["a", "a|b"], [[0.25, 0.75], [1.0, 0.0]])]
         [{'a': 0.25, 'a|b': 0.75}, {'a': 1.0}]
         """
-        if not isinstance(frame, Frame):
-            raise FrameError(f"frame must be a Frame, got {type(frame).__name__}")
-        keys = _masks(frame, masks)
-        try:
-            values = np.array(rows, dtype=np.float64)  # a copy: the mass functions keep views of it
-        except (TypeError, ValueError) as exc:
-            raise MassError(f"rows must be an (N, {keys.size}) array of numbers: {exc}") from None
-        if values.ndim != 2 or values.shape[1] != keys.size:
-            raise MassError(f"rows must have shape (N, {keys.size}) for {keys.size} focal sets, got {values.shape}")
-        label = frame.label
-        if values.size and not (values.min() >= 0 and values.max() < np.inf):
-            j, k = np.argwhere(~((values >= 0) & (values < np.inf)))[0]
-            value = float(values[j, k])
-            raise MassError(
-                f"row {j}: mass of focal set {label(int(keys[k]))!r} must be a finite number >= 0, got {value!r}"
-            )
-        if not open_world and (keys == 0).any() and values[:, keys == 0].max(initial=0.0) > 0:
-            j = int(np.argmax(values[:, np.flatnonzero(keys == 0)[0]] > 0))
-            raise MassError(f"row {j}: mass on the empty set '' needs open_world=True")
-        total = values.sum(axis=1)
-        off = np.abs(total - 1.0) > SUM_TOLERANCE
-        if off.any():
-            j = int(np.argmax(off))
-            raise MassError(f"row {j}: masses must sum to 1 (within {SUM_TOLERANCE}), got {float(total[j])!r}")
-        order = np.argsort(keys)
-        keys, values = keys[order], values[:, order]
-        keys.flags.writeable = False
-        values.flags.writeable = False
+        keys, values = checked_rows(frame, masks, rows, open_world=open_world)
         positive = (values > 0).all(axis=1).tolist()
         stacks = map(Stack, repeat(keys), values[:, :, None])  # row j as the (K, 1) masses of a Stack
         new, checked = cls._new, cls.from_stack
@@ -308,26 +260,7 @@ class MassFunction:
         out[self._stack.masks] = self._stack.masses[:, 0]
         return out
 
-    def _operands(self, focal: Focal | list[Focal] | NDArray) -> tuple[NDArray, int | NDArray]:
-        """The focal sets' bitmasks and the queried set: an int for one focal set, a (Q, 1)
-        column for a list or a 1-D array of them, both int32 where the frame fits in 31 bits
-        (half the memory a (Q, K) test goes through)."""
-        masks = self._stack.masks
-        if not isinstance(focal, list | np.ndarray):
-            return masks, self.frame.mask(focal)
-        sets = _masks(self.frame, focal, distinct=False)
-        if len(self.frame) <= QUERY_INT32_BITS:
-            return masks.astype(np.int32), sets.astype(np.int32)[:, None]
-        return masks, sets[:, None]
-
-    def _sums(self, selected: NDArray[np.bool_]) -> float | NDArray[np.float64]:
-        """The mass of the selected focal sets: a float for (K,), an array for (Q, K)."""
-        masses = self._stack.masses[:, 0]
-        if selected.ndim == 1:
-            return float(masses[selected].sum())
-        return np.einsum("qk,k->q", selected, masses)  # no (Q, K) float temporary, no BLAS threads
-
-    def belief(self, focal: Focal | list[Focal] | NDArray) -> float | NDArray[np.float64]:
+    def belief(self, focal: Query) -> float | NDArray[np.float64]:
         """bel(A): the mass of the non-empty focal sets inside A.
 
         Parameters
@@ -343,13 +276,9 @@ class MassFunction:
         >>> m.belief("a|b"), m.belief(["a", "a|b", 7]).tolist(), m.belief(np.array([4, 0])).tolist()
         (0.75, [0.5, 0.75, 1.0], [0.25, 0.0])
         """
-        masks, a = self._operands(focal)
-        selected = masks & ~a == 0
-        if masks[0] == 0:  # increasing: ∅ can only come first
-            selected[..., 0] = False
-        return self._sums(selected)
+        return queries.belief(self.frame, self._stack, focal)
 
-    def plausibility(self, focal: Focal | list[Focal] | NDArray) -> float | NDArray[np.float64]:
+    def plausibility(self, focal: Query) -> float | NDArray[np.float64]:
         """pl(A): the mass of the focal sets meeting A; a list or array of sets gives an array (see :meth:`belief`).
 
         Examples
@@ -357,10 +286,9 @@ class MassFunction:
         >>> MassFunction(Frame(["a", "b", "c"]), {"a": 0.5, "a|b": 0.25, "c": 0.25}).plausibility([2, 6]).tolist()
         [0.25, 0.5]
         """
-        masks, a = self._operands(focal)
-        return self._sums(masks & a != 0)
+        return queries.plausibility(self.frame, self._stack, focal)
 
-    def commonality(self, focal: Focal | list[Focal] | NDArray) -> float | NDArray[np.float64]:
+    def commonality(self, focal: Query) -> float | NDArray[np.float64]:
         """q(A): the mass of the focal sets containing A; a list or array of sets gives an array (see :meth:`belief`).
 
         Examples
@@ -368,8 +296,7 @@ class MassFunction:
         >>> MassFunction(Frame(["a", "b", "c"]), {"a": 0.5, "a|b": 0.25, "c": 0.25}).commonality(["a", ""]).tolist()
         [0.75, 1.0]
         """
-        masks, a = self._operands(focal)
-        return self._sums(masks & a == a)
+        return queries.commonality(self.frame, self._stack, focal)
 
     def pignistic(self) -> dict[str, float]:
         """The pignistic probabilities BetP(ω) = sum over A ∋ ω of m(A) / |A| / (1 - m(∅)).
@@ -458,35 +385,3 @@ class MassFunction:
         """
         p = self.pignistic()
         return max(p, key=p.__getitem__)
-
-
-def _read_only(masks: NDArray[np.int64], masses: NDArray[np.float64]) -> Stack:
-    """A stack of read-only arrays (a mass function's arrays never change).
-
-    ``masses`` must be the caller's own new array or view: it is made read-only in place.
-    ``masks`` is viewed read-only, unless it already is read-only (shared as it is).
-    """
-    if masks.flags.writeable:
-        masks = masks.view()
-        masks.setflags(write=False)
-    masses.setflags(write=False)
-    return Stack(masks, masses)
-
-
-def _masks(frame: Frame, focal_sets: ArrayLike, *, distinct: bool = True) -> NDArray:
-    """The focal sets as an array of bitmasks of ``frame.dtype`` (unsorted), checked against the frame.
-
-    ``distinct``: refuse a focal set given twice.
-    """
-    if isinstance(focal_sets, np.ndarray) and focal_sets.dtype.kind in "iu" and frame.dtype != object:
-        keys = focal_sets.astype(np.int64).ravel()
-        outside = (keys < 0) | (keys > frame.full)
-        if outside.any():
-            raise FrameError(f"focal set {int(keys[np.argmax(outside)])} is not a subset of {frame!r}")
-    else:
-        keys = np.array([frame.mask(f.item() if isinstance(f, np.generic) else f) for f in focal_sets], frame.dtype)
-    if distinct:
-        uniq, counts = np.unique(keys, return_counts=True)
-        if (counts > 1).any():
-            raise MassError(f"focal set {frame.label(int(uniq[np.argmax(counts > 1)]))!r} is given twice")
-    return keys

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from evidential import Frame, MassFunction, TotalConflictError, columns, combine, combine_batch, conflict
 from evidential.columns import COLUMN_MAX_BITS, dempster_columns
 from evidential.elements import element_masses, membership
-from evidential.rules import RULES
+from evidential.registry import RULES
 from evidential.stack import (
     PYTHON_MAX_BITS,
     PYTHON_MAX_SETS,

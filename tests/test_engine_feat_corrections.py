@@ -75,6 +75,20 @@ def test_decombination_inverts_the_conjunctive_rule(m1, m2):
     assert_same(decombine(combine(m1, m2, rule="conjunctive"), m2), m1)
 
 
+def test_decombination_known_answers():
+    # Smets (1995), "The canonical decomposition of a weighted belief", IJCAI: decombination divides
+    # the conjunctive weights, A^w12 ⊘ A^w2 = A^(w12 / w2), and removes a simple factor whole.
+    a, ab = "w0", "w0|w1"
+    close(
+        decombine(MassFunction(ABC, {a: 0.7, "w0|w1|w2": 0.3}), MassFunction(ABC, {a: 0.4, "w0|w1|w2": 0.6})),
+        {a: 0.5, "w0|w1|w2": 0.5},
+    )
+    separable = MassFunction(ABC, {a: 0.7, ab: 0.12, "w0|w1|w2": 0.18})  # {a}^0.3 ∩ {a, b}^0.6
+    close(decombine(separable, MassFunction(ABC, {ab: 0.4, "w0|w1|w2": 0.6})), {a: 0.7, "w0|w1|w2": 0.3})
+    with pytest.raises(MassError, match="not a mass function"):  # w = 0.6 / 0.3 = 2 > 1 with nothing to absorb it
+        decombine(MassFunction(ABC, {a: 0.4, "w0|w1|w2": 0.6}), MassFunction(ABC, {a: 0.7, "w0|w1|w2": 0.3}))
+
+
 def test_decombination_errors_where_it_does_not_exist():
     m2 = MassFunction(ABC, {"w0": 0.5, "w0|w1|w2": 0.5})
     with pytest.raises(MassError, match="not a mass function"):

@@ -51,6 +51,23 @@ def test_dominance_and_maximality_known_answer():
     assert maximality(vacuous, u) == [1, 2]
 
 
+def test_reject_option_known_answer():
+    # Denœux (1997), Pattern Recognition 30, sec. 3: with 0-1 utilities the lower, pignistic and upper
+    # expected utilities of act i are bel({ω_i}), BetP(ω_i) and pl({ω_i}); the best act is rejected
+    # (abstain) when its value is below the utility of rejection.
+    m = MassFunction(ABC, {"w0": 0.4, "w1": 0.2, "w0|w1|w2": 0.4})
+    u = np.eye(3)
+    e = expected_utilities(m, u)
+    np.testing.assert_allclose(e.lower, [0.4, 0.2, 0.0])
+    np.testing.assert_allclose(e.pignistic, [0.4 + 0.4 / 3, 0.2 + 0.4 / 3, 0.4 / 3])
+    np.testing.assert_allclose(e.upper, [0.8, 0.6, 0.4])
+    assert choose(m, u, criterion="lower", reject=0.5) is None
+    assert choose(m, u, criterion="pignistic", reject=0.5) == 0
+    assert choose(m, u, criterion="upper", reject=0.9) is None
+    assert choose(m, u, criterion="hurwicz", pessimism=0.5, reject=0.55) == 0  # (0.4 + 0.8) / 2 = 0.6
+    assert choose(m, u, criterion="hurwicz", pessimism=0.5, reject=0.65) is None
+
+
 @settings(max_examples=40)
 @given(m=masses(3), u=st.lists(st.lists(st.floats(-5, 5), min_size=3, max_size=3), min_size=1, max_size=4))
 def test_decision_criteria_are_consistent(m, u):

@@ -8,7 +8,8 @@ from hypothesis import given, reject, settings
 from hypothesis import strategies as st
 
 from evidential import RULES, MassError, MassFunction, TotalConflictError, combine, combine_batch, register_rule
-from evidential.rules import EMPTY_SET, Stack
+from evidential.registry import EMPTY_SET
+from evidential.stack import Stack
 
 ALL = sorted(RULES)
 ABC = FRAMES[3]
