@@ -39,8 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from evidential import RULES, combine_batch
-from evidential.rules import register_rule
+from evidential import RULES, combine_batch, register_rule
 from evmap.sources.evidence import SourceKind, register_kind
 from evmap.sources.sensor_kinds import SENSOR_KINDS, SensorKind, register_sensor_kind
 
