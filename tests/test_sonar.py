@@ -261,6 +261,10 @@ def worlds(draw):
     assume(not any(x.intersects(y) for i, x in enumerate(discs) for y in discs[:i]))
     sensor = shapely.Point(pose[:2])
     assume(all(g.distance(sensor) >= 0.05 for g in geoms))
+    # nor on a wall's line: seen edge-on, which side of it the sensor is on would be round-off
+    for a, b in (pair for _, pts, _ in walls for pair in pairwise(pts)):
+        cross = (b[0] - a[0]) * (pose[1] - a[1]) - (b[1] - a[1]) * (pose[0] - a[0])
+        assume(abs(cross) / np.hypot(b[0] - a[0], b[1] - a[1]) >= 1e-3)
     assume(all(np.hypot(pose[0] - c[0], pose[1] - c[1]) >= r + 0.05 for _, c, r in cylinders))
     return make_surfaces(walls, cylinders), np.array(pose)
 
