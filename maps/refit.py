@@ -52,8 +52,9 @@ def refits(
     L's fit and its ends within ``min(merge distance, corner distance / 2)`` of
     L's, and each end of L can follow without the corners changing
     (:func:`end_moves`): a free end point meeting no other line's end, or a
-    corner of L and one other line whose end it still meets and no other (the
-    corner moves to the new midpoint). L then stays in place, moved onto the
+    corner whose lines' ends still form one cluster as corners link ends, with no
+    other end joining (the corner moves to the new centroid of the ends: the
+    midpoint for two lines). L then stays in place, moved onto the
     merged line (by the rebuild), as a whole rebuild would find it.
     """
     store = bm.segments
@@ -116,8 +117,8 @@ def end_moves(
     bm: BeliefMap, fits: dict[str, NDArray[np.float64]], near: NearEnds, config: Config
 ) -> dict[str, list[tuple[str, tuple[float, float]]] | None]:
     """Where the end points of each line of ``fits`` go when the lines take their new fits: a free end onto
-    its fit end, a corner of two lines to the midpoint of their fit ends; None for a line whose corners would
-    change (an end meeting an end of ``near`` that it did not meet, or leaving its corner's other line).
+    its fit end, a corner to the centroid of its lines' fit ends; None for a line whose corners would change
+    (an end meeting an end of ``near`` not at its point, or the corner's ends no longer one cluster).
     """
     g = bm.graph
     cos_max = np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
@@ -159,13 +160,20 @@ def end_moves(
 def _corner_place(
     near: NearEnds, rows: list[int], degree: int, reach: float, cos_max: float
 ) -> tuple[float, float] | None:
-    """The midpoint of the ends ``rows`` of ``near`` if they are the ends of the two lines of their corner
-    (``degree`` 2), one each, still linked as corners link ends; else None (a corner of three lines or more
-    is found anew: single linkage may join or split it in ways one line's move does not show)."""
-    if degree != 2 or len(rows) != 2 or near.pairs[rows[0]][0] == near.pairs[rows[1]][0]:
+    """The centroid of the ends ``rows`` of ``near`` if they are the ends of all ``degree`` lines of their
+    corner, one each, still one single-linkage cluster as corners link ends (within ``reach``, lines at least
+    the corner angle from parallel); else None (the corner would split: it is found anew)."""
+    lines = [near.pairs[i][0] for i in rows]
+    if len(rows) != degree or len(set(lines)) != degree:
         return None
-    (ax, ay), (bx, by) = near.ends[rows].tolist()
-    (ux, uy), (vx, vy) = near.u[rows].tolist()
-    if math.hypot(ax - bx, ay - by) > reach or abs(ux * vx + uy * vy) > cos_max:
+    xy = near.ends[rows]
+    dist = np.hypot(*(xy[:, None, :] - xy[None, :, :]).transpose(2, 0, 1))
+    link = (dist <= reach) & (np.abs(near.u[rows] @ near.u[rows].T) <= cos_max)
+    reached = np.zeros(degree, dtype=bool)
+    reached[0] = True
+    for _ in range(degree - 1):  # grow the cluster from the first end; a corner holds a handful of ends
+        reached |= link[reached].any(axis=0)
+    if not reached.all():
         return None
-    return (ax + bx) / 2, (ay + by) / 2
+    x, y = xy.mean(axis=0).tolist()
+    return x, y
