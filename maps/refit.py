@@ -130,20 +130,23 @@ def end_moves(
     ends = own.reshape(-1, 2)  # line k's end e is row 2k + e
     dist = np.hypot(*(ends[:, None, :] - near.ends[None, :, :]).transpose(2, 0, 1))
     across = np.abs(np.repeat(u, 2, axis=0) @ near.u.T) <= cos_max
-    close = (dist <= reach) & across
+    meeting: dict[int, set[int]] = {}  # row of ``ends`` -> the ends of ``near`` it meets
+    for row, i in zip(*np.nonzero((dist <= reach) & across), strict=True):
+        meeting.setdefault(int(row), set()).add(int(i))
     at: dict[str, list[int]] = {}
     for i, (_, node) in enumerate(near.pairs):
         at.setdefault(node, []).append(i)
+    xy = ends.tolist()
     corner_at: dict[str, tuple[float, float] | None] = {}  # each corner's new place, None if it would change
     moves: dict[str, list[tuple[str, tuple[float, float]]] | None] = {}
     for k, lid in enumerate(lids):
         found: list[tuple[str, tuple[float, float]]] | None = []
         for e, node in enumerate(bm.ends(lid)):
-            meets = {i for i in np.flatnonzero(close[2 * k + e]).tolist() if near.pairs[i][0] != lid}
+            meets = {i for i in meeting.get(2 * k + e, ()) if near.pairs[i][0] != lid}
             kind = g.nodes[node]["kind"]
             if kind == "endpoint" and not meets:
-                end = ends[2 * k + e]
-                found.append((node, (float(end[0]), float(end[1]))))
+                x, y = xy[2 * k + e]
+                found.append((node, (x, y)))
                 continue
             if kind == "corner" and meets and meets <= set(at.get(node, ())):
                 if node not in corner_at:
@@ -163,17 +166,17 @@ def _corner_place(
     """The centroid of the ends ``rows`` of ``near`` if they are the ends of all ``degree`` lines of their
     corner, one each, still one single-linkage cluster as corners link ends (within ``reach``, lines at least
     the corner angle from parallel); else None (the corner would split: it is found anew)."""
-    lines = [near.pairs[i][0] for i in rows]
-    if len(rows) != degree or len(set(lines)) != degree:
+    if len(rows) != degree or len({near.pairs[i][0] for i in rows}) != degree:
         return None
-    xy = near.ends[rows]
-    dist = np.hypot(*(xy[:, None, :] - xy[None, :, :]).transpose(2, 0, 1))
-    link = (dist <= reach) & (np.abs(near.u[rows] @ near.u[rows].T) <= cos_max)
-    reached = np.zeros(degree, dtype=bool)
-    reached[0] = True
-    for _ in range(degree - 1):  # grow the cluster from the first end; a corner holds a handful of ends
-        reached |= link[reached].any(axis=0)
-    if not reached.all():
+    xy, u = near.ends[rows].tolist(), near.u[rows].tolist()  # a handful of ends: plain floats
+    reached, frontier = {0}, [0]
+    while frontier:  # the cluster grown from the first end
+        a = frontier.pop()
+        for b in range(degree):
+            linked = math.dist(xy[a], xy[b]) <= reach and abs(u[a][0] * u[b][0] + u[a][1] * u[b][1]) <= cos_max
+            if b not in reached and linked:
+                reached.add(b)
+                frontier.append(b)
+    if len(reached) < degree:
         return None
-    x, y = xy.mean(axis=0).tolist()
-    return x, y
+    return sum(x for x, _ in xy) / degree, sum(y for _, y in xy) / degree
