@@ -137,8 +137,7 @@ def _refit_in_place(
     (its end points are moved by the caller); its sonar records stay."""
     data = bm.graph.edges[bm.ends(lid)]
     history = data["history"]
-    first, members = _merged_line(bm, lid, members, *line, evidence)
-    first_mass = MassFunction.from_dict(bm.frame, first["mass"], open_world=True)
+    first, first_mass, members = _merged_line(bm, lid, members, *line, evidence)
     mass = with_running(first_mass, bm.running_mass(lid), config.rule)
     attrs = {"mass": mass, "history": [first, *history[1:]], "members": members.tolist(), "fit": fit.tolist()}
     if not _same(data, attrs):
@@ -202,17 +201,19 @@ def _merged_line(
     merged: Merged,
     k: int,
     evidence: tuple[NoiseEvidence, NDArray[np.intp]],
-) -> tuple[dict[str, Any], NDArray[np.intp]]:
-    """The noise-elimination record of the merged line k (rows ``members``) as the line ``lid``, and its
-    members: the rows, or their consolidated support if more than :data:`CONSOLIDATE_POSES` poses saw them."""
+) -> tuple[dict[str, Any], MassFunction, NDArray[np.intp]]:
+    """The noise-elimination record of the merged line k (rows ``members``) as the line ``lid``, its mass,
+    and its members: the rows, or their consolidated support if more than :data:`CONSOLIDATE_POSES` poses
+    saw them."""
     store = bm.segments
     base, seen = evidence
+    mass = MassFunction.from_dense(bm.frame, base.fused[k], open_world=True)
     first = {
         "stage": NOISE_STAGE,
         "poses": sorted(set(store.pose[members].tolist())),
         "relation": str(base.relation[k]),
         "length": float(base.length[k]),
-        "mass": MassFunction.from_dense(bm.frame, base.fused[k], open_world=True).to_dict(),
+        "mass": mass.to_dict(),
     }
     store.line[members] = lid
     if seen[k] > CONSOLIDATE_POSES and len(members) > 1:
@@ -220,7 +221,7 @@ def _merged_line(
         store.relation[row], store.mass[row], store.conflict[row] = base.relation[k], base.fused[k], base.conflict[k]
         store.eliminated[row] = False
         members = np.array([row], dtype=np.intp)
-    return first, members
+    return first, mass, members
 
 
 def _new_lines(
@@ -241,8 +242,7 @@ def _new_lines(
         replaced = set(store.line[members].tolist()) & set(histories)
         records, running = _carried(bm, [histories[lid] for lid in sorted(replaced)], config)
         lid = bm.new_id("L")
-        first, members = _merged_line(bm, lid, members, merged, k, evidence)
-        first_mass = MassFunction.from_dict(bm.frame, first["mass"], open_world=True)
+        first, first_mass, members = _merged_line(bm, lid, members, merged, k, evidence)
         data = {
             "id": lid,
             "mass": with_running(first_mass, running, config.rule),
