@@ -44,7 +44,6 @@ import os
 import signal
 import sys
 from collections.abc import Callable, Iterable, Sequence
-from importlib.metadata import PackageNotFoundError, version
 from typing import Any
 
 from evmap.maps.app.compare_args import add_compare_parser
@@ -109,7 +108,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="evmap", description="Evidential sonar and laser structured-light fusion into a belief map."
     )
-    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    parser.add_argument("--version", action=_Version, help="show program's version number and exit")
     parser.set_defaults(handler=lambda args: _usage(parser))
     commands = parser.add_subparsers(title="commands", metavar="COMMAND")
 
@@ -319,12 +318,22 @@ def _usage(parser: argparse.ArgumentParser) -> int:
     return 2
 
 
-def _version() -> str:
-    """The installed evmap's version."""
-    try:
-        return version("evmap")
-    except PackageNotFoundError:  # run from a checkout that was never installed
-        return "unknown (not installed)"
+class _Version(argparse.Action):
+    """``--version``: the installed evmap's version, looked up only when asked (``importlib.metadata`` is slow to
+    import, and no other command needs it)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, help: str | None = None) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, help=help)
+
+    def __call__(self, parser: argparse.ArgumentParser, *args: object) -> None:
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            found = version("evmap")
+        except PackageNotFoundError:  # run from a checkout that was never installed
+            found = "unknown (not installed)"
+        print(f"{parser.prog} {found}")
+        parser.exit()
 
 
 if __name__ == "__main__":
