@@ -39,11 +39,13 @@ exits with status 2, without a traceback.
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import signal
 import sys
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 from evmap.maps.app.compare_args import add_compare_parser
@@ -63,7 +65,13 @@ Handler = Callable[[argparse.Namespace], int]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the ``evmap`` command with ``argv`` (default: ``sys.argv[1:]``); return the exit status."""
+    """Run the ``evmap`` command with ``argv`` (default: ``sys.argv[1:]``); return the exit status.
+
+    As the process's command (``argv`` None), what a command imported stays out of the garbage collector's
+    passes for the rest of the process (:func:`_imports`); called from Python with ``argv``, the collector gets
+    it back when the command returns.
+    """
+    frozen = gc.get_freeze_count()
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -86,6 +94,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 143
     finally:
         signal.signal(signal.SIGTERM, previous)
+        if argv is not None and not frozen:
+            gc.unfreeze()
+
+
+@contextmanager
+def _imports() -> Iterator[None]:
+    """Import a command's modules with the cyclic garbage collector paused, then freeze what they made.
+
+    The imports of ``evmap run`` make about 100,000 objects the collector tracks, and no garbage: its passes
+    over them, during the imports and at exit, were about 9 % of a small run. ``gc.freeze`` moves them to the
+    permanent generation, which no later pass scans; what the command makes afterwards is collected as
+    usual. A collector that is already paused or frozen (by a program calling :func:`main`) is left alone.
+    """
+    if not gc.isenabled() or gc.get_freeze_count():
+        yield
+        return
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.freeze()
+        gc.enable()
 
 
 class Terminated(Exception):
@@ -223,17 +253,19 @@ def list_sources(args: argparse.Namespace) -> int:
 
 def compare_command(args: argparse.Namespace) -> int:
     """``evmap compare`` (:func:`evmap.maps.app.compare.compare_command`)."""
-    from evmap.maps.app.compare import compare_command
+    with _imports():
+        from evmap.maps.app.compare import compare_command
 
     return compare_command(args)
 
 
 def run_command(args: argparse.Namespace) -> int:
     """``evmap run``: the paper's experiment on a scenario, its artefacts written all or nothing."""
-    from evmap.maps.app.artefacts import prepare_out, write_staged
-    from evmap.maps.app.run import run_scenario
-    from evmap.sources.config import check_simulated_run, load_config
-    from evmap.sources.sim.scenario import default_scenario, load_scenario
+    with _imports():
+        from evmap.maps.app.artefacts import prepare_out, write_staged
+        from evmap.maps.app.run import run_scenario
+        from evmap.sources.config import check_simulated_run, load_config
+        from evmap.sources.sim.scenario import default_scenario, load_scenario
 
     cfg = load_config(args.config)
     check_simulated_run(cfg)
@@ -261,11 +293,12 @@ def run_command(args: argparse.Namespace) -> int:
 
 def log_command(args: argparse.Namespace) -> int:
     """``evmap log FILE``: a belief map from a robot log, its artefacts written all or nothing."""
-    from tqdm import tqdm
+    with _imports():
+        from tqdm import tqdm
 
-    from evmap.maps.app.artefacts import prepare_out, write_staged
-    from evmap.maps.app.log_run import run_log
-    from evmap.sources.config import load_config
+        from evmap.maps.app.artefacts import prepare_out, write_staged
+        from evmap.maps.app.log_run import run_log
+        from evmap.sources.config import load_config
 
     cfg = load_config(args.config)
     if args.rule:
