@@ -399,6 +399,6 @@ def new_map(config: Config) -> BeliefMap:
     >>> new_map(load_config())
     BeliefMap(points=0, lines=0, frame=['real', 'noise'], rule='dempster')
     """
-    return BeliefMap(
-        config.frame, config.rule, config=config.to_data(), next_id=dict.fromkeys(ID_PREFIXES, 1), poses=[]
-    )
+    bm = BeliefMap(config.frame, config.rule, config=config.to_data(), next_id=dict.fromkeys(ID_PREFIXES, 1), poses=[])
+    bm._config = config  # what the graph's copy reads back as (Config.to_data), without validating it again
+    return bm

@@ -79,7 +79,7 @@ _UNKNOWN_VALUE = {"unknown": -1, "blocked": 100, "free": 0}
 class OccupancyParams(BaseModel):
     """Constants of the evidence that the occupancy grid is built from."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True)
 
     free_mass: float = Field(0.7, ge=0, lt=1, description="m(free) of a cell whose centre lies in the sonar open space")
     occupied_mass: float = Field(

@@ -72,8 +72,9 @@ def _build(spec: ConfigFile, name: str, document: Document | None) -> Config:
     except ValueError as exc:
         raise SpecError(("rule",), str(exc)) from None
 
+    wanted = [data.get("kind") if isinstance(data, Mapping) else None for data in spec.extra_sensors.values()]
     sensors = build_sensors(
-        spec.extra_sensors, lambda model, data, at: validate(model, data, name, at, document), sensor_kinds()
+        spec.extra_sensors, lambda model, data, at: validate(model, data, name, at, document), sensor_kinds(wanted)
     )
     built: dict[str, EvidenceSource] = {}
     for source_name, data in spec.sources.items():

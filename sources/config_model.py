@@ -117,7 +117,7 @@ runs on scenarios), or one an observation brings."""
 
 
 class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, strict=True)
 
 
 class FrameSpec(_Section):

@@ -72,7 +72,7 @@ class LaserParams(BaseModel):
     The defaults are tuned on the Intel and Freiburg 079 logs (``benchmarks/bench_logs.py``), the same for both.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True)
 
     sigma_r: float = Field(0.01, ge=0, le=1, description="range noise std (m); SICK LMS 2xx: about 1 cm")
     lambda_deg: float = Field(

@@ -35,7 +35,7 @@ of 18,000 points inside a ring of 1,000 wall segments took up to 109 s (``benchm
 class _Params(BaseModel):
     """Unknown keys refused; strict types (a bool or a string is not a number, 5.0 is not a count); finite."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
 
 class SonarParams(_Params):

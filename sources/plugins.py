@@ -32,7 +32,7 @@ it), and naming it in a config or on the command line raises its problem.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from importlib.metadata import EntryPoint, entry_points
 from typing import Any
@@ -96,16 +96,18 @@ def _load(group: str, point: EntryPoint) -> Plugin:
     return plugin
 
 
-def sensor_kinds() -> dict[str, SensorKind]:
+def sensor_kinds(wanted: Iterable[object] | None = None) -> dict[str, SensorKind]:
     """Every sensor kind: the built-in ones (:mod:`evmap.sources.sim.sensor_models`, which registers them with
-    their simulators) and those of installed plugins (loaded once, on first use).
+    their simulators) and those of installed plugins (loaded once, on first use). Given the kinds ``wanted``
+    (a config's), the plugins are loaded only if one of them is not built in, as for rules and source kinds.
 
     >>> sorted(sensor_kinds())[:3]
     ['contour_property', 'detector', 'range']
     """
     import evmap.sources.sim.sensor_models  # noqa: F401 - registers the built-in kinds
 
-    load_plugins()
+    if wanted is None or any(kind not in SENSOR_KINDS for kind in wanted):
+        load_plugins()
     return SENSOR_KINDS
 
 

@@ -64,7 +64,7 @@ FeatureFunction = Callable[[Any, Mapping[str, NDArray[Any]], NDArray[np.float64]
 class SensorSpec(BaseModel):
     """The YAML keys every declared sensor has: its kind and a free description."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, allow_inf_nan=False)
 
     kind: Text
     description: Text = Field("", max_length=2000, description="free text, shown by `evmap sources`")

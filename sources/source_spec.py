@@ -116,7 +116,7 @@ class BoundSource:
 class SourceSpec(BaseModel):
     """The YAML keys every source has: its kind, the frame it speaks of, the feature it reads."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True)
 
     kind: Text
     frame: Name = Field(description="name of a frame declared under `frames`")

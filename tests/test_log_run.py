@@ -11,8 +11,9 @@ from evmap.maps import new_map
 from evmap.maps.app.cli import main
 from evmap.maps.app.log_run import run_log
 from evmap.maps.app.run import report, run_scenario, segment_records
+from evmap.maps.log_observation import observation_from_log
 from evmap.maps.merging import related_pairs
-from evmap.maps.observation import Observation, observation_from_log
+from evmap.maps.observation import Observation
 from evmap.sources.config import load_config
 from evmap.sources.logs import open_log
 from evmap.sources.logs.scan import RangeReadings

@@ -104,6 +104,27 @@ def test_a_config_uses_a_plugin_source_kind(site, tmp_path):
     )
 
 
+def test_plugins_are_read_when_a_config_names_a_kind_that_is_not_built_in(site, tmp_path):
+    """Entry points are read on a config's first miss (rules, source and sensor kinds), not for every run."""
+    (tmp_path / "bumper.yaml").write_text(
+        configs.path("default.yaml").read_text() + "\nextra_sensors:\n  front: {kind: bumper}\n"
+    )
+    code = (
+        "import sys; from evmap.sources.config import load_config; from evmap.sources.plugins import PLUGINS;"
+        "sensors = load_config(sys.argv[1]).extra_sensors;"
+        "print(len(PLUGINS), *(f'{name}={s.kind.origin}' for name, s in sensors.items()))"
+    )
+    env = {"PYTHONPATH": ":".join(p for p in [str(site), *sys.path] if p), "PATH": "/usr/bin:/bin"}
+    found = {}
+    for config in ("default", configs.path("examples/radar.yaml"), tmp_path / "bumper.yaml"):
+        command = [sys.executable, "-c", code, str(config)]
+        done = subprocess.run(command, check=False, capture_output=True, text=True, env=env)
+        assert done.returncode == 0, done.stderr
+        found[Path(config).stem] = done.stdout.strip()
+    assert found["default"] == "0" and found["radar"] == "0 radar=builtin"  # a detector: built in
+    assert found["bumper"] == "5 front=evmap-test-plugins 0.1 (evmap_test_plugins:BUMPER)"
+
+
 @pytest.fixture
 def plugin_module(site, monkeypatch):
     """The test package imported in this process; what it registers is removed afterwards."""

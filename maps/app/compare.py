@@ -22,7 +22,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from evmap.maps.app.compare_plots import write_plots
 from evmap.maps.app.compare_runner import check_rules, check_run, iter_results
 from evmap.maps.app.compare_tables import (
     WORLD_COLUMNS,
@@ -47,6 +46,8 @@ def write_comparison(comparison: Comparison, out: str | Path) -> None:
 
     ``out`` must exist; ``comparison`` must hold its rows and scenarios (:func:`run_comparison`).
     """
+    from evmap.maps.app.compare_plots import write_plots  # matplotlib: only once there is something to plot
+
     out = Path(out)
     write_csv(out / "worlds.csv", WORLD_COLUMNS, comparison.rows)
     (out / "worlds").mkdir()
@@ -81,6 +82,8 @@ def compare_command(args: argparse.Namespace) -> int:
                     tally.add(result)
                     writer.add(result)
             comparison = tally.comparison(args.seed)
+            from evmap.maps.app.compare_plots import write_plots  # matplotlib: not before the worlds are done
+
             write_summary(comparison, staging.path)
             write_plots(comparison, staging.path)
     except KeyboardInterrupt:

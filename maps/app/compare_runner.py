@@ -72,8 +72,9 @@ TASKS_PER_WORKER = 12
 MAX_IN_FLIGHT_PER_WORKER = 2
 """Batches submitted per worker and not yet collected: what bounds the memory of a run."""
 
-CONNECT_TIMEOUT = 5
-"""Seconds to reach a Dask scheduler before giving up."""
+CONNECT_TIMEOUT = 2
+"""Seconds to reach a Dask scheduler before giving up (retrying meanwhile): one that is up answers in milliseconds,
+one still starting has this long; an unreachable one is refused in a few seconds with the imports."""
 
 GC_EVERY = 16
 """Worlds between full garbage collections in a process. Each world leaves about 0.2 MB of reference cycles,

@@ -19,7 +19,6 @@ from typing import Any, Self, TextIO
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import stats
 
 from evmap.maps.app.compare_metrics import (
     BELIEF_BINS,
@@ -241,6 +240,8 @@ def _interval(n: float, mean: float, m2: float) -> tuple[float | None, float | N
     """The Student t interval of a mean from n values with sum of squared deviations m2; None below 2 values."""
     if n < 2:
         return None, None
+    from scipy import stats  # here, not at the top: scipy.stats takes a second to import, and only the tables need it
+
     half = float(stats.t.ppf(0.5 + CONFIDENCE / 2, n - 1)) * math.sqrt(m2 / (n - 1) / n)
     return float(mean - half), float(mean + half)
 

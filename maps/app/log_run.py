@@ -2,7 +2,7 @@
 
 :func:`run_log` is what ``evmap log`` computes. Each used record (every
 ``every``-th laser scan of the log, at most ``limit`` of them) becomes an
-observation (:func:`evmap.maps.observation.observation_from_log`) whose
+observation (:func:`evmap.maps.log_observation.observation_from_log`) whose
 ``pose_index`` is its place among the used scans, and is folded into one map.
 The log's sonar readings are used where it has them, each reading once (a
 record whose readings are those of the previous used scan brings none); a log
@@ -36,7 +36,7 @@ import numpy as np
 
 from evmap.maps import new_map
 from evmap.maps.app.run import LogSummary, Run
-from evmap.maps.observation import observation_from_log
+from evmap.maps.log_observation import observation_from_log
 from evmap.sources.config_model import Config
 from evmap.sources.laser import LaserParams
 from evmap.sources.line_fit import log_fit, scan_fit

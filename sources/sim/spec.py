@@ -86,4 +86,4 @@ Point = tuple[Coordinate, Coordinate]
 class SpecModel(BaseModel):
     """Base of the scenario models: unknown keys refused, immutable, finite numbers only."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, allow_inf_nan=False)

@@ -32,7 +32,7 @@ class WorldGenParams(BaseModel):
     ``hall_share``, a corridor otherwise.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True)
 
     grid: float = Field(0.05, gt=0, le=1, description="walls, doors and windows lie on this grid (m)")
     # floor plan
