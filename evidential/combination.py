@@ -118,13 +118,13 @@ def _batch(i: int, array: ArrayLike, shape: tuple[int, ...] | None, columns: boo
         raise MassError(f"batch {i} must have shape {want}, got {a.shape}")
     narrow = columns and size <= 1 << COLUMN_MAX_BITS
     t = a.T if narrow else np.ascontiguousarray(a.T)
-    if not t.min() >= 0:
+    if t.size and not t.min() >= 0:
         col, row = np.argwhere(~(t >= 0))[0]
         raise MassError(
             f"batch {i}, row {row}: mass of focal set {col} must be finite and >= 0, got {float(t[col, row])!r}"
         )
     total = reduce(np.add, t) if narrow else t.sum(axis=0)  # the same sums, set by set
-    if not (total.min() >= 1.0 - SUM_TOLERANCE and total.max() <= 1.0 + SUM_TOLERANCE):
+    if total.size and not (total.min() >= 1.0 - SUM_TOLERANCE and total.max() <= 1.0 + SUM_TOLERANCE):
         row = int(np.argmax(np.abs(total - 1.0)))
         raise MassError(
             f"batch {i}, row {row}: masses must sum to 1 (within {SUM_TOLERANCE}), got {float(total[row])!r}"
@@ -148,7 +148,7 @@ def combine_batch(*batches: ArrayLike, rule: str | RuleFunction = "dempster") ->
     -------
     ndarray, shape (N, 2**n)
         Row ``j`` is the combination of the rows ``j`` (a transposed view of a
-        C-contiguous (2**n, N) array).
+        C-contiguous (2**n, N) array); N may be 0.
 
     Examples
     --------
@@ -165,6 +165,8 @@ def combine_batch(*batches: ArrayLike, rule: str | RuleFunction = "dempster") ->
     shape = (first.shape[1], first.shape[0])
     arrays = [first] + [_batch(i, b, shape, columns) for i, b in enumerate(batches[1:], 1)]
     n = first.shape[0].bit_length() - 1
+    if not shape[0]:  # no rows: nothing to combine
+        return np.zeros((1 << n, 0)).T
     if columns and n <= COLUMN_MAX_BITS:
         dense = dempster_columns(arrays, n)
         if dense is not None:

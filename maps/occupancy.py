@@ -43,6 +43,7 @@ from evidential import Frame, combine_batch
 from evmap.maps.atomic_file import write_atomic
 from evmap.maps.free_space import free_space
 from evmap.maps.planner import state
+from evmap.maps.sensed import sensed
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
@@ -343,6 +344,7 @@ def occupancy_masses(
 
     Columns of the last axis: m(∅), m(free), m(occupied), m(free|occupied);
     row 0 is the lowest y; ``origin`` is the lower-left corner of cell (0, 0).
+    The grid spans the map's points, its free space and the places its poses sensed from.
     Free evidence from the map's free space (:func:`evmap.maps.free_space.free_space`), occupied evidence
     from every line,
     corner and unidentified object weighted by its belief, combined by the
@@ -355,9 +357,10 @@ def occupancy_masses(
     q = np.concatenate([s.q, xy])
     belief = np.concatenate([s.line_bel, s.point_bel[solid]])
     free = free_space(bm)
-    everything = np.concatenate([s.xy, shapely.get_coordinates(free)])
+    origins = np.array([place.origin for place in sensed(bm)], dtype=float).reshape(-1, 2)
+    everything = np.concatenate([s.xy, shapely.get_coordinates(free), origins])
     if not len(everything):
-        raise ValueError("the map is empty (no points, no open space): an occupancy grid has no extent")
+        raise ValueError("the map is empty (no points, no open space, no pose): an occupancy grid has no extent")
     bounds = (*everything.min(axis=0), *everything.max(axis=0))
     return evidential_grid(free, p, q, belief, bounds, resolution, bm.rule, params)
 

@@ -146,3 +146,11 @@ def test_sets_used_only_after_the_sampled_rows_are_combined(n):
         objs = [MassFunction.from_dense(frame, M[j]) for M in (M1, M2)]
         np.testing.assert_allclose(out[j], combine(*objs).dense(), rtol=0, atol=1e-15)
     assert out[150, 1] > 0 and out[150, 2] > 0
+
+
+@pytest.mark.parametrize("rule", sorted(RULES))
+def test_batches_of_no_rows_combine_to_no_rows(rule):
+    out = combine_batch(np.zeros((0, 4)), np.zeros((0, 4)), rule=rule)
+    assert out.shape == (0, 4)
+    with pytest.raises(MassError, match="batch 1 must have shape"):
+        combine_batch(np.zeros((0, 4)), np.zeros((0, 8)), rule=rule)

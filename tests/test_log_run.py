@@ -11,6 +11,7 @@ from evmap.maps import new_map
 from evmap.maps.app.cli import main
 from evmap.maps.app.log_run import run_log
 from evmap.maps.app.run import report, run_scenario, segment_records
+from evmap.maps.belief_map import BeliefMap
 from evmap.maps.log_observation import observation_from_log
 from evmap.maps.merging import related_pairs
 from evmap.maps.observation import Observation
@@ -106,6 +107,17 @@ def test_evmap_log_writes_the_run_artefacts(tmp_path, capsys):
     names = {p.name for p in out.iterdir()}
     assert {"report.json", "segments.json", "map.json", "map.pgm", "map.yaml", "fig7_final_map.svg"} <= names
     assert not any("pose" in n for n in names)
+
+
+def test_a_log_whose_scans_give_no_segment_still_makes_its_artefacts(tmp_path):
+    # the g2o excerpt's scans have five beams 45 deg apart: no segment, no line, no open space
+    out = tmp_path / "out"
+    assert main(["log", str(DATA / "killian-excerpt.g2o"), "--out", str(out), "--figures", "none"]) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["scans"] == 3 and report["lsl_segments"] == 0 and report["lines_after_merge"] == 0
+    assert (out / "map.pgm").stat().st_size > 0
+    grid = BeliefMap.load(out / "map.json").occupancy_grid()
+    assert grid.size > 0 and (grid == -1).all()  # every cell unknown, around the poses
 
 
 def test_a_bad_log_is_an_error_naming_file_and_line_and_nothing_is_written(tmp_path, capsys):
