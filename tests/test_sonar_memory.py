@@ -19,7 +19,7 @@ from evmap.sources.params import SonarParams
 from evmap.sources.readings import SonarScan
 from evmap.sources.sim import sonar, sonar_near
 from evmap.sources.sim.sonar import echo_halfwidth, target_strength
-from evmap.sources.sim.sonar_near import EPS, PARALLEL, TOUCH, path_crossings, surfaces_near
+from evmap.sources.sim.sonar_near import EPS, PARALLEL, TOUCH, path_crossings, probe_rays, surfaces_near
 from evmap.sources.sim.surfaces import Surfaces
 
 # ---------------------------------------------------------------- the dense reference
@@ -71,16 +71,7 @@ def _dense_echoes(near, s, params):
 
 
 def _dense_visible_segments(near, s):
-    rel = np.concatenate([near.p, near.q]) - s
-    crit = [np.arctan2(rel[:, 1], rel[:, 0])]
-    if len(near.occ_c):
-        rc = near.occ_c - s
-        centre = np.arctan2(rc[:, 1], rc[:, 0])
-        half = np.arcsin(np.clip(near.occ_r / np.hypot(rc[:, 0], rc[:, 1]), 0, 1))
-        crit += [centre - half, centre + half]
-    crit = np.unique(np.mod(np.concatenate(crit), 2 * np.pi))
-    mid = (crit + np.append(crit[1:], crit[0] + 2 * np.pi)) / 2
-    u = np.stack([np.cos(mid), np.sin(mid)], axis=1)
+    _, u = probe_rays(near, s)
     t, v = crossings(s, u[:, None], near.p, near.q - near.p, parallel=PARALLEL)
     dist = np.where((t > 0) & (v >= 0) & (v <= 1), t, np.inf)
     if len(near.occ_c):

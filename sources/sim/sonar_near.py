@@ -41,6 +41,7 @@ __all__ = [
     "occluder_fan",
     "path_blocked",
     "path_crossings",
+    "probe_rays",
     "second_legs_blocked",
     "segment_boxes",
     "surfaces_near",
@@ -310,6 +311,21 @@ def second_legs_blocked(
     return hit
 
 
+def probe_rays(near: Near, s: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """One ray from ``s`` through each angular interval between the bearings of the segment ends and the
+    cylinders' tangents: its bearing (rad, in [0, 2 pi) and a turn past the last) and unit direction."""
+    rel = np.concatenate([near.p, near.q]) - s
+    crit = [np.arctan2(rel[:, 1], rel[:, 0])]
+    if len(near.occ_c):
+        rc = near.occ_c - s
+        centre = np.arctan2(rc[:, 1], rc[:, 0])
+        half = np.arcsin(np.clip(near.occ_r / np.hypot(rc[:, 0], rc[:, 1]), 0, 1))
+        crit += [centre - half, centre + half]
+    crit = np.unique(np.mod(np.concatenate(crit), 2 * np.pi))
+    mid = (crit + np.append(crit[1:], crit[0] + 2 * np.pi)) / 2
+    return mid, np.stack([np.cos(mid), np.sin(mid)], axis=1)
+
+
 def visible_segments(near: Near, s: NDArray[np.float64]) -> NDArray[np.bool_]:
     """(n,) True for the segments that some ray from ``s`` hits first.
 
@@ -320,16 +336,7 @@ def visible_segments(near: Near, s: NDArray[np.float64]) -> NDArray[np.bool_]:
     the rest are beyond its nearest hit.
     """
     n = len(near.p)
-    rel = np.concatenate([near.p, near.q]) - s
-    crit = [np.arctan2(rel[:, 1], rel[:, 0])]
-    if len(near.occ_c):
-        rc = near.occ_c - s
-        centre = np.arctan2(rc[:, 1], rc[:, 0])
-        half = np.arcsin(np.clip(near.occ_r / np.hypot(rc[:, 0], rc[:, 1]), 0, 1))
-        crit += [centre - half, centre + half]
-    crit = np.unique(np.mod(np.concatenate(crit), 2 * np.pi))
-    mid = (crit + np.append(crit[1:], crit[0] + 2 * np.pi)) / 2
-    u = np.stack([np.cos(mid), np.sin(mid)], axis=1)
+    mid, u = probe_rays(near, s)
     best = np.full(len(mid), np.inf)
     first = np.full(len(mid), -1, dtype=np.intp)  # per ray the nearest; of equal ones the first listed
     for i, j in nearest_first_pairs(*near.fan[1:], mid, best, PAIRS):
