@@ -47,6 +47,7 @@ __all__ = [
     "build_sensors",
     "check_features",
     "check_readings",
+    "check_sensor_kind",
     "features_from_arrays",
     "read_readings",
     "register_sensor_kind",
@@ -141,18 +142,17 @@ SENSOR_KINDS: dict[str, SensorKind] = {}
 """Every kind of sensor, by the name used as ``kind:`` under ``extra_sensors``."""
 
 
-def register_sensor_kind(kind: SensorKind) -> SensorKind:
-    """Register a sensor kind, after checking it: a new name, a valid example section, and a sensor of that
-    section passing the sensor checks (:func:`evmap.sources.conformance.check_sensor`: one declared value per
-    segment, deterministic, each segment alone as in a batch).
+def check_sensor_kind(kind: SensorKind) -> None:
+    """The checks a sensor kind passes to be registered: a valid example section of its own kind, feature names
+    matching :data:`FEATURE_NAME`, and a sensor of that section passing the sensor checks
+    (:func:`evmap.sources.conformance.check_sensor`: one declared value per segment, deterministic, each segment
+    alone as in a batch).
 
     Raises
     ------
     ValueError
-        naming the kind, if the name is taken or its example section is not valid.
+        naming the kind and what failed.
     """
-    if kind.name in SENSOR_KINDS:
-        raise ValueError(f"sensor kind {kind.name!r} is already registered")
     try:
         spec = kind.spec.model_validate(kind.example)
     except ValueError as exc:
@@ -166,6 +166,19 @@ def register_sensor_kind(kind: SensorKind) -> SensorKind:
         check_sensor(DeclaredSensor("x", kind, spec), kind.arrays)
     except Exception as exc:  # noqa: BLE001 - whatever the kind raised, it is refused, and says why
         raise ValueError(f"sensor kind {kind.name!r} fails the sensor checks: {exc}") from None
+
+
+def register_sensor_kind(kind: SensorKind) -> SensorKind:
+    """Register a sensor kind under a new name, after :func:`check_sensor_kind`.
+
+    Raises
+    ------
+    ValueError
+        naming the kind, if the name is taken or the kind fails the checks.
+    """
+    if kind.name in SENSOR_KINDS:
+        raise ValueError(f"sensor kind {kind.name!r} is already registered")
+    check_sensor_kind(kind)
     SENSOR_KINDS[kind.name] = kind
     return kind
 

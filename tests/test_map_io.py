@@ -1,8 +1,12 @@
 """map.json: lossless, atomic save and load, with clear refusals of bad files."""
 
+import importlib.metadata
 import json
 import math
 import os
+import re
+import subprocess
+import sys
 from copy import deepcopy
 
 import networkx as nx
@@ -202,3 +206,32 @@ def test_from_data_leaves_its_input_alone(bm):
     bm2 = BeliefMap.from_data(data)
     bm2.fold("L1", awkward_mass(np.random.default_rng(2)), {"pose": 2})
     assert data == copy
+
+
+def test_the_oldest_networkx_we_allow_reads_the_file(bm, tmp_path):
+    """The floor of ``networkx`` in our requirements, installed beside the tests' own, reads map.json with its
+    defaults (``node_link_graph`` of networkx 3.2-3.5 looked for ``links``, ours are ``edges``: refused floors)."""
+    (floor,) = [
+        m.group(1) for r in importlib.metadata.requires("evmap") if (m := re.fullmatch(r"networkx>=([\d.]+)", r))
+    ]
+    target = tmp_path / "floor"
+    subprocess.run(
+        [sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(target), f"networkx=={floor}"],
+        check=True,
+        capture_output=True,
+    )
+    bm.save(tmp_path / "map.json")
+    read = (
+        "import json, sys, networkx as nx\n"
+        "g = nx.node_link_graph(json.load(open(sys.argv[1])))\n"
+        "edges = [sorted((u, v)) + [d['id']] for u, v, d in g.edges(data=True)]\n"
+        "print(json.dumps({'version': nx.__version__, 'nodes': sorted(g.nodes), 'edges': edges}))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", read, str(tmp_path / "map.json")],
+        check=True,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(target)},
+    )
+    assert json.loads(done.stdout) == {"version": floor, "nodes": ["C1", "E2", "U1"], "edges": [["C1", "E2", "L1"]]}

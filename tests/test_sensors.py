@@ -21,10 +21,16 @@ from evmap.sources.open_space import open_space
 from evmap.sources.plugins import sensor_kinds
 from evmap.sources.rcd import extract_rcds
 from evmap.sources.relation import relation
-from evmap.sources.sensor_kinds import SENSOR_KINDS, features_from_arrays, read_readings, register_sensor_kind
+from evmap.sources.sensor_kinds import (
+    SENSOR_KINDS,
+    check_sensor_kind,
+    features_from_arrays,
+    read_readings,
+    register_sensor_kind,
+)
 from evmap.sources.sim.lsl import observe_lsl
 from evmap.sources.sim.scenario import default_scenario
-from evmap.sources.sim.sensor_models import sensor_rng
+from evmap.sources.sim.sensor_models import BUILTIN_SENSOR_KINDS, sensor_rng
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World
 from evmap.sources.sim.worldgen import generate_world
@@ -290,6 +296,12 @@ def _kind_with(features, name="flaky"):
     spec = type("FlakySpec", (detector.spec,), {"__annotations__": {"kind": Literal[name]}})
     example = {**detector.example, "kind": name}
     return dataclasses.replace(detector, name=name, spec=spec, features=features, example=example)
+
+
+@pytest.mark.parametrize("kind", BUILTIN_SENSOR_KINDS, ids=lambda kind: kind.name)
+def test_every_built_in_sensor_kind_passes_the_checks_a_registered_kind_passes(kind):
+    check_sensor_kind(kind)  # registered at import without them, so that evmap starts fast
+    assert SENSOR_KINDS[kind.name] is kind
 
 
 def test_a_sensor_kind_that_fails_the_sensor_checks_is_refused_at_registration_by_name():

@@ -39,7 +39,7 @@ from evmap.sources.detector import DETECTOR_ARRAYS, DETECTOR_CATEGORIES, MAX_PAT
 from evmap.sources.geometry import cast_rays
 from evmap.sources.range_sensor import RANGE_ARRAYS, RANGE_CATEGORIES, RangeSpec, range_features
 from evmap.sources.readings import LslSegments
-from evmap.sources.sensor_kinds import SENSOR_KINDS, DeclaredSensor, SensorKind, register_sensor_kind
+from evmap.sources.sensor_kinds import SENSOR_KINDS, DeclaredSensor, SensorKind
 from evmap.sources.sim.world import World, wall_id
 
 __all__ = [
@@ -264,8 +264,8 @@ BUILTIN_SENSOR_KINDS: tuple[SensorKind, ...] = (
         summary="a per-point property of the contour sensor (intensity, stripe width), aggregated per segment",
     ),
 )
-"""The built-in sensor kinds, registered when this module is first imported."""
+"""The built-in sensor kinds, registered when this module is first imported; they pass
+:func:`~evmap.sources.sensor_kinds.check_sensor_kind` (a test says so), which every start of evmap need not repeat."""
 
 for _kind in BUILTIN_SENSOR_KINDS:
-    if _kind.name not in SENSOR_KINDS:  # once, whichever name this module was imported by
-        register_sensor_kind(_kind)
+    SENSOR_KINDS.setdefault(_kind.name, _kind)  # once, whichever name this module was imported by
