@@ -69,9 +69,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     As the process's command (``argv`` None), what a command imported stays out of the garbage collector's
     passes for the rest of the process (:func:`_imports`), and OpenBLAS (numpy's linear algebra) runs on one
-    thread unless ``OPENBLAS_NUM_THREADS`` says otherwise: evmap's matrices are small, and the threads it would
-    start cost a small run about 7 % of its time (Dask's workers inherit the setting: one thread per worker
-    process). Called from Python with ``argv``, the collector gets it back when the command returns and the
+    thread unless ``OPENBLAS_NUM_THREADS`` says otherwise: evmap's matrices are small, and starting the threads
+    it would use costs more than they give (Dask's workers inherit the setting: one thread per worker process). Called from Python with ``argv``, the collector gets it back when the command returns and the
     environment is left alone.
     """
     if argv is None:
