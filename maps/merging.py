@@ -17,10 +17,14 @@ Procedure, repeated until a round merges nothing:
    candidates with numpy.
 2. The connected components of the relation are the proposed groups. Each
    group is refitted (below) from its *input* segments, and accepted only if
-   every input member stays within the tolerances of the refitted line: its
-   direction within ``angle_deg`` and both its end points within ``distance``.
-   This keeps transitive chains (a gently curving wall) from producing a line
-   that no longer fits its pieces.
+   every input member stays within the tolerances of the refitted line: both
+   its end points within ``distance``, and its direction within ``angle_deg``
+   or, for a member shorter than ``distance / sin(angle_deg)`` (29 cm at the
+   defaults), within ``asin(distance / length)``: the turn its own end-point
+   tolerance allows (a short piece's direction is the least certain thing
+   about it; the points of a 10 cm piece with 1 cm noise give its direction
+   to about 10 degrees). This keeps transitive chains (a gently curving wall)
+   from producing a line that no longer fits its pieces.
 3. A rejected group is rebuilt agglomeratively (Kruskal): its related pairs in
    increasing order of cost (the larger distance of the shorter line's ends
    from the longer line, plus the gap), two sets joined when their union
@@ -319,7 +323,7 @@ def _fits_one_line(moments: list[float], rows: list[list[float]], cos_tol: float
     phi = 0.5 * math.atan2(2 * (sxy / w - cx * cy), (sxx / w - cx * cx) - (syy / w - cy * cy))
     ux, uy = math.cos(phi), math.sin(phi)
     return all(
-        abs((qx - px) * ux + (qy - py) * uy) >= cos_tol * length
+        abs((qx - px) * ux + (qy - py) * uy) >= min(cos_tol * length, math.sqrt(max(length**2 - distance**2, 0.0)))
         and abs(uy * (px - cx) - ux * (py - cy)) <= distance
         and abs(uy * (qx - cx) - ux * (qy - cy)) <= distance
         for px, py, qx, qy, length in rows
@@ -355,9 +359,9 @@ def _fit(
     u = np.stack([np.cos(phi), np.sin(phi)], axis=1)
     ug, cg = u[g], c[g]
     off = np.maximum(np.abs(_cross(ug, p - cg)), np.abs(_cross(ug, q - cg)))
-    ok = (np.abs(_dot(ug, d)) >= (np.cos(np.radians(params.angle_deg)) - _EPS) * length) & (
-        off <= params.distance + _EPS
-    )
+    cos_tol = np.cos(np.radians(params.angle_deg)) - _EPS
+    along = np.minimum(cos_tol * length, np.sqrt(np.maximum(length**2 - params.distance**2, 0.0)))  # module doc
+    ok = (np.abs(_dot(ug, d)) >= along) & (off <= params.distance + _EPS)
     return c, u, np.bincount(g, ~ok, minlength=k) == 0
 
 

@@ -31,7 +31,9 @@ def _within_tolerance(p, q, m, params=DEFAULT_MERGE):
     d /= np.linalg.norm(d, axis=1)[:, None]
     off = np.maximum(np.abs(_cross(ul, p - pl)), np.abs(_cross(ul, q - pl)))
     angle = np.degrees(np.arccos(np.clip(np.abs(np.sum(ul * d, axis=1)), 0, 1)))
-    return bool((off <= params.distance + 1e-9).all() and (angle <= params.angle_deg + 1e-9).all())
+    length = np.hypot(*(q - p).T)
+    allowed = np.maximum(params.angle_deg, np.degrees(np.arcsin(np.minimum(params.distance / length, 1))))
+    return bool((off <= params.distance + 1e-9).all() and (angle <= allowed + 1e-6).all())
 
 
 def test_two_collinear_overlapping_pieces_merge_into_their_span():
