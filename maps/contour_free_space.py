@@ -8,22 +8,35 @@ the pose), each ray is one of:
   range-noise stds, measured across the segment);
 - **passes**: its point lies beyond the segment: the ray went through it;
 - **short**: its point lies in front: something nearer hid the segment;
-- **none**: nothing returned although the segment is within the sensor's range.
+- **none**: nothing returned although the segment is within the sensor's range:
+  an opaque surface there would have returned a point, so the ray went through
+  it as a passing one did.
 
 The poses are those whose readings reach the segment, the latest
 :data:`~evmap.maps.noise.LATEST_POSES` of them (:func:`evmap.maps.noise.judge`).
 Two features come of it (:func:`ray_features`):
 
 - ``contour_free``: ``contradicted`` when rays of any pose, the segment's own
-  included, pass through it (at least ``min_rays``, and at least
-  ``pass_share`` of the rays that end on it or pass), else ``clear``. A sunlit
-  patch seen with the ``threshold`` detector has the real stripe behind it; a
-  wall has nothing behind it.
+  included, go through it (pass, or return nothing within range; at least
+  ``min_passes``, and at least ``pass_share`` of the rays that end on it or go
+  through), else ``clear``. A sunlit patch seen with the ``threshold`` detector
+  has the real stripe behind it, and another pose's stripe may cross its place;
+  a wall stops every ray that meets it. One ray is enough: a point beyond the
+  segment by more than the tolerance and three noise stds is no noise of a
+  surface there.
 - ``lsl_persistence``: per other pose whose rays reach the segment unhidden
-  (at least ``min_rays`` of them): seen if at least ``seen_share`` of them end on
-  it, else missed. ``seen`` if any other pose saw it, ``missed`` if one missed it
+  (at least ``min_rays`` of them): missed if fewer than ``seen_share`` of them
+  end on it; seen if at least ``seen_share`` of them end on it and these are at
+  least ``seen_cover`` of all its rays that cross the segment, the hidden ones
+  included (the pose saw most of it; a few rays that end on it amid hidden ones
+  may end on whatever hides the rest, as another pose's phantoms in the same
+  sunlight do). ``seen`` if any other pose saw it, ``missed`` if one missed it
   and none saw it, else ``unobserved``. A sunlight phantom, drawn anew per pose,
   is missed by the poses that look at its place; a wall is seen again.
+
+:func:`stripe_edges` tells which ends of a segment the stripe saw as edges (the
+sonar forward model gives such an end an echo): the segment's own pose's next
+ray beyond the end returned farther, or nothing.
 """
 
 from __future__ import annotations
@@ -37,7 +50,7 @@ from numpy.typing import NDArray
 from evmap.maps.sensed import Sensed
 from evmap.sources.geometry import crossings
 
-__all__ = ["RayParams", "RayTally", "ray_features", "ray_tally"]
+__all__ = ["RayParams", "RayTally", "ray_features", "ray_tally", "stripe_edges"]
 
 
 @dataclass(frozen=True)
@@ -48,9 +61,13 @@ class RayParams:
     range_noise: float = 0.003  # the stripe's range-noise std per metre of range
     max_range: float = 8.0  # the contour sensor's range: beyond it, no return is no evidence
     end_margin: float = 0.03  # rays this close to an end of the segment (a quarter of it at most) are not counted
-    min_rays: int = 3
+    min_rays: int = 3  # rays of another pose that reach the segment unhidden, for it to have looked
+    min_passes: int = 1  # rays through the segment that contradict it
     pass_share: float = 0.25
     seen_share: float = 0.7
+    seen_cover: float = 0.6  # the share of another pose's rays crossing the segment that end on it, to have seen it
+    edge_step: float = 0.05  # an end is an edge when the next ray beyond it returns this much farther (3 stds more)
+    edge_window_deg: float = 1.0  # the next ray beyond an end is looked for this far beyond it
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,9 +78,10 @@ class RayTally:
     """
 
     ends: NDArray[np.intp]
-    passes: NDArray[np.intp]
+    passes: NDArray[np.intp]  # rays that went through: passes and no returns
     other_ends: NDArray[np.intp]
     other_misses: NDArray[np.intp]  # passes and no returns
+    other_hidden: NDArray[np.intp]  # rays that end in front of the segment
 
 
 def _crossings(
@@ -139,28 +157,99 @@ def ray_tally(
         seg, k, kind = _crossings(p, q, poses, params)
         np.add.at(by_kind, (seg, k, kind), 1)
     other = pose[:, None] != np.array([s.pose_index for s in poses], dtype=np.intp)[None, :]
+    through = by_kind[:, :, 1] + by_kind[:, :, 3]
     return RayTally(
         by_kind[:, :, 0].sum(axis=1),
-        by_kind[:, :, 1].sum(axis=1),
+        through.sum(axis=1),
         np.where(other, by_kind[:, :, 0], 0),
-        np.where(other, by_kind[:, :, 1] + by_kind[:, :, 3], 0),
+        np.where(other, through, 0),
+        np.where(other, by_kind[:, :, 2], 0),
     )
 
 
 def ray_features(tally: RayTally, params: RayParams) -> dict[str, NDArray[np.str_]]:
     """The features ``contour_free`` and ``lsl_persistence`` of the tallied segments (module doc).
 
-    >>> tally = RayTally(np.array([10, 10, 10]), np.array([8, 0, 0]), np.array([[0], [6], [0]]),
-    ...                  np.array([[0], [0], [9]]))
-    >>> {k: v.tolist() for k, v in ray_features(tally, RayParams()).items()}
-    {'contour_free': ['contradicted', 'clear', 'clear'], 'lsl_persistence': ['unobserved', 'seen', 'missed']}
+    >>> tally = RayTally(np.array([10, 10, 10, 10]), np.array([8, 0, 0, 1]), np.array([[0], [6], [0], [4]]),
+    ...                  np.array([[0], [0], [9], [0]]), np.array([[0], [2], [0], [6]]))
+    >>> {k: v.tolist() for k, v in ray_features(tally, RayParams()).items()}  # doctest: +NORMALIZE_WHITESPACE
+    {'contour_free': ['contradicted', 'clear', 'clear', 'clear'],
+     'lsl_persistence': ['unobserved', 'seen', 'missed', 'unobserved']}
     """
-    contradicted = (tally.passes >= params.min_rays) & (tally.passes >= params.pass_share * (tally.passes + tally.ends))
+    through = tally.passes
+    contradicted = (through >= params.min_passes) & (through >= params.pass_share * (through + tally.ends))
     looked = tally.other_ends + tally.other_misses
     in_view = looked >= params.min_rays
-    saw = in_view & (tally.other_ends >= params.seen_share * looked)
-    seen, missed = saw.any(axis=1), (in_view & ~saw).any(axis=1)
+    ends_most = in_view & (tally.other_ends >= params.seen_share * looked)
+    saw = ends_most & (tally.other_ends >= params.seen_cover * (looked + tally.other_hidden))
+    seen, missed = saw.any(axis=1), (in_view & ~ends_most).any(axis=1)
     return {
         "contour_free": np.where(contradicted, "contradicted", "clear"),
         "lsl_persistence": np.select([seen, missed], ["seen", "missed"], "unobserved"),
     }
+
+
+def stripe_edges(
+    p: NDArray[np.float64], q: NDArray[np.float64], pose: NDArray[np.intp], poses: Sequence[Sensed], params: RayParams
+) -> NDArray[np.bool_]:
+    """(N, 2) whether the stripe saw each end (p, q) of segments p-q, seen from ``pose``, as an edge.
+
+    Beyond the end, in bearing, the segment's own pose's next ray (within ``edge_window_deg``, the rays
+    that end on the segment's end itself skipped) returned farther than the end by more than ``edge_step``
+    and three noise stds, or nothing: the surface ends there. Where it returned as near, the surface goes
+    on (in a piece too short for a segment); nearer, something hides what lies beyond: neither is an
+    edge. An end the pose's rays tell nothing about (no ray in the window, the pose not among ``poses``)
+    is taken for an edge.
+
+    >>> from evmap.sources.readings import SonarScan
+    >>> from evmap.sources.params import SonarParams
+    >>> sonar = SonarScan.from_readings([0.0], [1.0], SonarParams())
+    >>> bearing = np.radians(np.arange(-10.0, 10.01, 0.2))
+    >>> ranges = np.where(bearing < 0, 2 / np.cos(bearing), 4 / np.cos(bearing))  # a wall x = 2, then x = 4
+    >>> ranges[np.abs(np.degrees(bearing) - 5) < 1.3] = 1.0  # something near hides the far wall from 3.8 deg
+    >>> pose = Sensed(0, np.zeros(2), bearing, ranges, sonar)
+    >>> p = np.array([[2.0, -2 * np.tan(np.radians(6))], [4.0, 4 * np.tan(np.radians(1))]])
+    >>> q = np.array([[2.0, 0.0], [4.0, 4 * np.tan(np.radians(3.6))]])
+    >>> stripe_edges(p, q, np.array([0, 0]), [pose], RayParams()).tolist()  # ends at -6, 0 deg; 1, 3.6 deg
+    [[False, True], [False, False]]
+
+    The first segment's wall goes on at -6 deg and ends at 0 deg (the far wall beyond); the second's goes
+    on at 1 deg and is hidden beyond 3.6 deg.
+    """
+    out = np.ones((len(p), 2), dtype=bool)
+    window = np.radians(params.edge_window_deg)
+    for s in poses:
+        rows = np.flatnonzero(pose == s.pose_index)
+        n = len(s.bearing)
+        if not len(rows) or not n:
+            continue
+        a, b = p[rows] - s.origin, q[rows] - s.origin
+        ba, bb = np.arctan2(a[:, 1], a[:, 0]), np.arctan2(b[:, 1], b[:, 0])
+        outward = np.where((bb - ba + np.pi) % (2 * np.pi) - np.pi >= 0, 1.0, -1.0)  # from p towards q
+        tripled = np.r_[s.bearing - 2 * np.pi, s.bearing, s.bearing + 2 * np.pi]
+        points = s.range[:, None] * np.column_stack([np.cos(s.bearing), np.sin(s.bearing)])
+        for k, (end, bearing, sign) in enumerate(((a, ba, -outward), (b, bb, outward))):
+            r = np.hypot(*end.T)
+            lo = np.searchsorted(tripled, bearing - window, side="left")
+            count = np.searchsorted(tripled, bearing + window, side="right") - lo
+            pair = np.repeat(np.arange(len(rows)), count)
+            at = np.repeat(lo - np.cumsum(count) + count, count) + np.arange(count.sum())  # in ``tripled``
+            ray = at % n
+            gap = (tripled[at] - bearing[pair]) * sign[pair]  # how far beyond the end, in bearing
+            tol = params.tolerance + 3 * params.range_noise * r[pair]
+            away = np.nan_to_num(np.hypot(*(points[ray] - end[pair]).T), nan=np.inf)
+            # the end's own ray: the one whose point is nearest the end, if on it; the next ray lies beyond it
+            nearest = np.full(len(rows), np.inf)
+            np.minimum.at(nearest, pair, away)
+            own = np.full(len(rows), -np.inf)
+            is_own = (away == nearest[pair]) & (away <= tol)
+            np.maximum.at(own, pair[is_own], gap[is_own])
+            beyond_end = np.flatnonzero(gap > np.maximum(own[pair], 0.0))
+            if not len(beyond_end):
+                continue
+            order = beyond_end[np.lexsort((gap[beyond_end], pair[beyond_end]))]
+            first = order[np.r_[True, pair[order][1:] != pair[order][:-1]]]  # each end's next ray
+            back = s.range[ray[first]]
+            near = back <= r[pair[first]] + params.edge_step + 3 * params.range_noise * r[pair[first]]  # NaN: False
+            out[rows[pair[first][near]], k] = False
+    return out

@@ -18,7 +18,7 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from evidential import combine_batch
-from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally
+from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally, stripe_edges
 from evmap.maps.merging import related_pairs
 from evmap.maps.sensed import SENSED_FEATURES, keep_features, sensed_near
 from evmap.maps.sonar_forward import SonarForwardParams, free_ends, sonar_forward
@@ -132,13 +132,14 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
         for source in config.stage_sources(stage)
     }
     poses = sensed_near(bm, (*lo, *hi), config.sensors.lsl.max_range, LATEST_POSES)
+    lsl = config.sensors.lsl
+    params = RayParams(range_noise=lsl.range_noise, max_range=lsl.max_range)
     if read & {"contour_free", "lsl_persistence"}:
-        lsl = config.sensors.lsl
-        params = RayParams(range_noise=lsl.range_noise, max_range=lsl.max_range)
         features |= ray_features(ray_tally(store.p[ids], store.q[ids], store.pose[ids], poses, params), params)
     if "sonar_forward" in read:
         sonar = SonarForwardParams()
         free = free_ends(store.p[ids], store.q[ids], store.p[near], store.q[near], sonar.end_clearance)
+        free &= stripe_edges(store.p[ids], store.q[ids], store.pose[ids], poses, params)
         features["sonar_forward"] = sonar_forward(store.p[ids], store.q[ids], free, poses, sonar)
     keep_features(bm, ids, {name: features[name] for name in SENSED_FEATURES if name in features})
     ev = noise_evidence(store.p[ids], store.q[ids], space, config, features)

@@ -14,7 +14,12 @@ diffract a weak echo. For a segment and a pose's actual scan:
   answered first: no evidence.
 - **free ends**: an end with no other segment within ``end_clearance`` is an
   edge that would answer with ``edge_strength``; every reading within the
-  edge's detection half-width farther than its range: ``contradicted``.
+  edge's detection half-width farther than its range: ``contradicted``. The
+  noise-elimination stage takes for free ends only those the stripe saw as
+  edges (:func:`evmap.maps.contour_free_space.stripe_edges`): where the stripe
+  goes on beyond an end, or something nearer hides what lies beyond it, the
+  surface need not end there, and a wall broken into pieces by what stands in
+  front of it has no edges to echo.
 
 Over all poses: ``confirmed`` if any pose confirms, else ``contradicted`` if any
 contradicts, else ``silent`` (no evidence either way: an oblique wall is silent).

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from evmap.maps.belief_map import new_map
-from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally
+from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally, stripe_edges
 from evmap.maps.observation import observe
 from evmap.maps.pipeline import fold_observation
 from evmap.maps.sensed import Sensed, kept_features
@@ -108,13 +108,56 @@ def test_ray_tally_kinds() -> None:
     other = Sensed(1, np.zeros(2), bearing, ranges, sonar)
     p, q = np.array([[1.0, -0.2], [2.0, -0.2], [1.0, 0.17]]), np.array([[1.0, 0.0], [2.0, 0.0], [1.0, 0.29]])
     tally = ray_tally(p, q, np.zeros(3, dtype=np.intp), [other], RayParams())
-    # in front of the wall: passed; on the wall: ends; where nothing returned: missed
+    # in front of the wall: passed; on the wall: ends; where nothing returned (within range): went through
     assert tally.passes[0] > 0 and tally.ends[0] == 0
     assert tally.ends[1] > 0 and tally.passes[1] == 0
-    assert tally.other_misses[2, 0] > 0 and tally.other_ends[2, 0] == 0
+    assert tally.other_misses[2, 0] > 0 and tally.other_ends[2, 0] == 0 and tally.passes[2] > 0
     features = ray_features(tally, RayParams())
     assert features["lsl_persistence"].tolist() == ["missed", "seen", "missed"]
+    # an opaque segment at x = 1 would have returned the rays that returned nothing
+    assert features["contour_free"].tolist() == ["contradicted", "clear", "contradicted"]
+
+
+def test_one_ray_through_contradicts_and_a_few_ends_amid_hidden_rays_are_no_sighting() -> None:
+    """Known answers: the other pose (at the origin) looks at x = 2 over 41 rays, 0.01 rad apart."""
+    sonar = SonarScan.from_readings([0.0], [1.0], SonarParams())
+    bearing = np.linspace(-0.2, 0.2, 41)
+    ranges = 2 / np.cos(bearing)  # a wall at x = 2
+    ranges[20] = 3.0  # one ray, at bearing 0, returns from x = 3
+    ranges[:10] = 1 / np.cos(bearing[:10])  # bearings -0.2 to -0.11: something at x = 1 hides the wall
+    other = Sensed(1, np.zeros(2), bearing, ranges, sonar)
+    p = np.array([[2.0, -0.05], [2.0, 0.06], [2.0, -0.4]])
+    q = np.array([[2.0, 0.05], [2.0, 0.3], [2.0, -0.1]])
+    tally = ray_tally(p, q, np.zeros(3, dtype=np.intp), [other], RayParams())
+    # rays across the middle of each (3 cm at the ends left out): 3 at bearings -0.01 to 0.01; 9 at 0.05 to
+    # 0.13; 12 at -0.18 to -0.07, of which 8 hidden
+    assert tally.passes.tolist() == [1, 0, 0] and tally.ends.tolist() == [2, 9, 4]
+    assert tally.other_hidden[:, 0].tolist() == [0, 0, 8]
+    features = ray_features(tally, RayParams())
+    # one ray through is 1/3 of the first's rays (>= 0.25): contradicted, and 2 of 3 ending on it (< 0.7):
+    # missed; the third: its 4 unhidden rays end on it, but 4 < 0.6 * 12: neither seen nor missed
     assert features["contour_free"].tolist() == ["contradicted", "clear", "clear"]
+    assert features["lsl_persistence"].tolist() == ["missed", "seen", "unobserved"]
+
+
+def test_stripe_edges_are_where_the_stripe_steps_away() -> None:
+    """A wall at x = 2 up to y = 1.6, seen from the origin: a door from y = 0.5 to 0.9 (nothing within range
+    beyond), a box hiding the wall from y = 0.9 to 1.3, and the wall going on below y = -1 in a piece too short
+    to be a segment."""
+    sonar = SonarScan.from_readings([0.0], [1.0], SonarParams())
+    bearing = np.radians(np.arange(-40.0, 40.01, 0.2))
+    y = 2 * np.tan(bearing)
+    ranges = 2 / np.cos(bearing)
+    ranges[((y > 0.5) & (y < 0.9)) | (y > 1.6)] = np.nan
+    box = (y >= 0.9) & (y <= 1.3)
+    ranges[box] = 1.5 / np.cos(bearing[box])  # the box's face at x = 1.5
+    pose = Sensed(0, np.zeros(2), bearing, ranges, sonar)
+    p = np.array([[2.0, -1.0], [2.0, y[y > 1.3].min()]])
+    q = np.array([[2.0, y[y <= 0.5].max()], [2.0, y[y <= 1.6].max()]])
+    # below y = -1 the wall goes on: no edge; at the jamb: an edge; next to the box: hidden, no edge; at 1.6: an edge
+    assert stripe_edges(p, q, np.array([0, 0]), [pose], RayParams()).tolist() == [[False, True], [False, True]]
+    # segments of a pose whose rays are not given: every end is taken for an edge
+    assert stripe_edges(p, q, np.array([1, 1]), [pose], RayParams()).all()
 
 
 def test_ray_tally_of_many_poses_is_that_of_each_pose_alone() -> None:
