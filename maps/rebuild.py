@@ -2,16 +2,18 @@
 
 Every line holding a touched segment is dissolved, and its surviving segments
 are merged again with the touched ones (:mod:`evmap.maps.merging`); the lines
-meeting a dissolved line, or a new line near its ends, are detached and
-re-attached with the new ones, so that their corners (:mod:`evmap.maps.corners`)
-are found anew. A merged line's mass is recomputed from its merged length and
+meeting a dissolved line, or with an end near an end found anew (and so on, in
+turn), are detached and re-attached with the new ones, so that their corners
+(:mod:`evmap.maps.corners`) are found anew. A merged line's mass is recomputed from its merged length and
 relation (its pieces are not independent evidence); the sonar evidence of the
 lines it replaces carries over, at most one record per pose and source. A line
 seen from more than :data:`~evmap.maps.segments.CONSOLIDATE_POSES` poses is
 consolidated into its merged support (:meth:`~evmap.maps.segments.SegmentStore.consolidate`),
 which stands for them in later rebuilds: a rebuild merges what is near the
 change, a few rows per line, however long the line has been seen. A merged
-line that only moves a map line refits it in place (:mod:`evmap.maps.refit`);
+line that is a map line as it stands (its members and fit) leaves it in place,
+its points and neighbours untouched, and one that only moves a map line refits
+it in place (:mod:`evmap.maps.refit`); either takes the merged line's evidence;
 masses carry the running masses of their sonar records
 (:mod:`evmap.maps.running_mass`), so nothing is folded again.
 """
@@ -30,7 +32,7 @@ from evidential import MassFunction
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import Merged, merge_segments
 from evmap.maps.noise import NoiseEvidence, noise_evidence
-from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, surface_points_near
+from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, surface_points_near, unmoved
 from evmap.maps.running_mass import NOISE_STAGE, evidence_records, running_of, with_running
 from evmap.maps.segments import CONSOLIDATE_POSES, SegmentStore
 from evmap.maps.sensed import kept_features
@@ -70,6 +72,10 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     merged = merge_segments(store.p[pool], store.q[pool], config.merge, store.seen[pool])
     evidence = _merged_evidence(bm, pool, merged, config)
 
+    same = unmoved(bm, pool, merged, dissolved)
+    for k, lid in same.items():
+        fit = np.array(g.edges[dissolved.pop(lid)]["fit"], dtype=float)
+        _refit_in_place(bm, lid, pool[merged.groups[k]], fit, (merged, k), evidence, config)
     refitted, fits, near = refits(bm, pool, merged, dissolved, config)
     moves = [move for found in end_moves(bm, fits, near, config).values() for move in found or ()]
     for k, lid in refitted.items():
@@ -78,13 +84,13 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     for node, xy in moves:
         if bm.graph.nodes[node]["xy"] != xy:
             bm.set_attrs(node, xy=xy)
-    fresh = [k for k in range(len(merged.groups)) if k not in refitted]
+    fresh = [k for k in range(len(merged.groups)) if k not in refitted and k not in same]
     affected = _affected_points(bm, dissolved, merged, fresh, config)
     histories = {lid: (g.edges[ends]["history"], bm.running_mass(lid)) for lid, ends in dissolved.items()}
     kept, removed = _detach(bm, dissolved, affected)
     lines = kept + _new_lines(bm, pool, merged, fresh, evidence, histories, config)
     store.line[touched[store.eliminated[touched]]] = ""
-    return _attach(bm, lines, removed, viewpoint, config) | set(refitted.values())
+    return _attach(bm, lines, removed, viewpoint, config) | set(refitted.values()) | set(same.values())
 
 
 def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> None:
@@ -109,19 +115,38 @@ def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> No
 def _affected_points(
     bm: BeliefMap, dissolved: dict[str, tuple[str, str]], merged: Merged, fresh: list[int], config: Config
 ) -> set[str]:
-    """The points whose lines change: the dissolved lines' ends, and points near the ends of the ``fresh``
-    merged lines (those not refitted in place)."""
+    """The points whose lines change: the dissolved lines' ends, and the points near an end found anew.
+
+    Ends found anew are those of the ``fresh`` merged lines (those not refitted in place) and the fit ends of
+    the other lines at affected points; a point within twice the corner distance of one is affected in turn,
+    until no more are, so that every end that could join a corner with an end found anew is found anew too.
+    """
     g = bm.graph
     affected = {n for ends in dissolved.values() for n in ends}
-    if fresh:
-        ends = np.concatenate([merged.p[fresh], merged.q[fresh]])
-        reach = 2 * config.corners.distance + 1e-9
-        points = surface_points_near(bm, ends, reach)
-        if points:
-            xy = np.array([g.nodes[n]["xy"] for n in points])
-            d = np.hypot(*(xy[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)).min(axis=1)
-            affected |= {points[i] for i in np.flatnonzero(d <= reach)}
+    ends = [*merged.p[fresh].tolist(), *merged.q[fresh].tolist(), *_freed_ends(bm, affected, dissolved)]
+    reach = 2 * config.corners.distance + 1e-9
+    while ends:
+        xy = np.array(ends)
+        points = [n for n in surface_points_near(bm, xy, reach) if n not in affected]
+        if not points:
+            break
+        at = np.array([g.nodes[n]["xy"] for n in points])
+        d = np.hypot(*(at[:, None, :] - xy[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+        reached = {points[i] for i in np.flatnonzero(d <= reach)}
+        affected |= reached
+        ends = _freed_ends(bm, reached, dissolved)
     return affected
+
+
+def _freed_ends(bm: BeliefMap, points: set[str], dissolved: dict[str, tuple[str, str]]) -> list[list[float]]:
+    """The fit ends, at these points, of the lines not dissolved: the ends found anew when the points go."""
+    g = bm.graph
+    ends = []
+    for n in sorted(points):
+        for _, _, d in g.edges(n, data=True):
+            if d["id"] not in dissolved:
+                ends.append(d["fit"][bm.ends(d["id"]).index(n)])
+    return ends
 
 
 def _refit_in_place(
