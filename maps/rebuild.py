@@ -47,6 +47,16 @@ Removed = list[tuple[tuple[float, float], list[dict[str, Any]], MassFunction | N
 """Removed corners: position, history and running mass of each."""
 
 
+@dataclass(frozen=True, eq=False)
+class _Evidence:
+    """The noise-elimination evidence of the merged lines: the verdicts, their fused masses as mass functions,
+    and how many poses saw each line."""
+
+    base: NoiseEvidence
+    masses: list[MassFunction]
+    seen: NDArray[np.intp]
+
+
 @dataclass
 class _Line:
     """A line about to be (re)attached: its fitted ends, the points its ends must keep, its data."""
@@ -155,7 +165,7 @@ def _refit_in_place(
     members: NDArray[np.intp],
     fit: NDArray[np.float64],
     line: tuple[Merged, int],
-    evidence: tuple[NoiseEvidence, NDArray[np.intp]],
+    evidence: _Evidence,
     config: Config,
 ) -> None:
     """The line ``lid`` takes the merged line's members, support, noise-elimination evidence and ``fit``
@@ -202,9 +212,7 @@ def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[
     return kept, removed
 
 
-def _merged_evidence(
-    bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, config: Config
-) -> tuple[NoiseEvidence, NDArray[np.intp]]:
+def _merged_evidence(bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, config: Config) -> _Evidence:
     """The noise-elimination evidence of the merged lines, from their merged length and relation (other
     features from their longest member), and how many poses saw each."""
     store = bm.segments
@@ -216,7 +224,9 @@ def _merged_evidence(
     features |= kept_features(bm, longest)
     ends = np.concatenate([store.p[pool], store.q[pool]])
     space = bm.open_space_parts_near((*ends.min(axis=0), *ends.max(axis=0))) if len(pool) else shapely.MultiPolygon()
-    return noise_evidence(merged.p, merged.q, space, config, features), seen
+    base = noise_evidence(merged.p, merged.q, space, config, features)
+    masses = MassFunction.from_rows(bm.frame, range(1 << len(bm.frame)), base.fused, open_world=True)  # in bulk
+    return _Evidence(base, masses, seen)
 
 
 def _merged_line(
@@ -225,14 +235,13 @@ def _merged_line(
     members: NDArray[np.intp],
     merged: Merged,
     k: int,
-    evidence: tuple[NoiseEvidence, NDArray[np.intp]],
+    evidence: _Evidence,
 ) -> tuple[dict[str, Any], MassFunction, NDArray[np.intp]]:
     """The noise-elimination record of the merged line k (rows ``members``) as the line ``lid``, its mass,
     and its members: the rows, or their consolidated support if more than :data:`CONSOLIDATE_POSES` poses
     saw them."""
     store = bm.segments
-    base, seen = evidence
-    mass = MassFunction.from_dense(bm.frame, base.fused[k], open_world=True)
+    base, seen, mass = evidence.base, evidence.seen, evidence.masses[k]
     first = {
         "stage": NOISE_STAGE,
         "poses": sorted(set(store.pose[members].tolist())),
@@ -254,7 +263,7 @@ def _new_lines(
     pool: NDArray[np.intp],
     merged: Merged,
     fresh: list[int],
-    evidence: tuple[NoiseEvidence, NDArray[np.intp]],
+    evidence: _Evidence,
     histories: dict[str, tuple[list[dict[str, Any]], MassFunction | None]],
     config: Config,
 ) -> list[_Line]:
