@@ -71,7 +71,8 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     """Re-merge the surviving segments near the change and re-find the corners there.
 
     ``touched`` are rows of the map's segment store just judged by noise
-    elimination. Returns the ids of every line (re)attached or refitted in place.
+    elimination. Returns the ids of every line (re)attached, refitted in place, or left in place with new
+    evidence: the lines whose end points' masses may change.
     """
     store = bm.segments
     g = bm.graph
@@ -82,10 +83,12 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     merged = merge_segments(store.p[pool], store.q[pool], config.merge, store.seen[pool])
     evidence = _merged_evidence(bm, pool, merged, config)
 
-    same = unmoved(bm, pool, merged, dissolved)
-    for k, lid in same.items():
+    stays = unmoved(bm, pool, merged, dissolved)
+    new_evidence: set[str] = set()  # the lines that stay whose evidence changed
+    for k, lid in stays.items():
         fit = np.array(g.edges[dissolved.pop(lid)]["fit"], dtype=float)
-        _refit_in_place(bm, lid, pool[merged.groups[k]], fit, (merged, k), evidence, config)
+        if _refit_in_place(bm, lid, pool[merged.groups[k]], fit, (merged, k), evidence, config):
+            new_evidence.add(lid)
     refitted, fits, near = refits(bm, pool, merged, dissolved, config)
     moves = [move for found in end_moves(bm, fits, near, config).values() for move in found or ()]
     for k, lid in refitted.items():
@@ -94,13 +97,13 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     for node, xy in moves:
         if bm.graph.nodes[node]["xy"] != xy:
             bm.set_attrs(node, xy=xy)
-    fresh = [k for k in range(len(merged.groups)) if k not in refitted and k not in same]
+    fresh = [k for k in range(len(merged.groups)) if k not in refitted and k not in stays]
     affected = _affected_points(bm, dissolved, merged, fresh, config)
     histories = {lid: (g.edges[ends]["history"], bm.running_mass(lid)) for lid, ends in dissolved.items()}
     kept, removed = _detach(bm, dissolved, affected)
     lines = kept + _new_lines(bm, pool, merged, fresh, evidence, histories, config)
     store.line[touched[store.eliminated[touched]]] = ""
-    return _attach(bm, lines, removed, viewpoint, config) | set(refitted.values()) | set(same.values())
+    return _attach(bm, lines, removed, viewpoint, config) | set(refitted.values()) | new_evidence
 
 
 def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> None:
@@ -167,16 +170,18 @@ def _refit_in_place(
     line: tuple[Merged, int],
     evidence: _Evidence,
     config: Config,
-) -> None:
+) -> bool:
     """The line ``lid`` takes the merged line's members, support, noise-elimination evidence and ``fit``
-    (its end points are moved by the caller); its sonar records stay."""
+    (its end points are moved by the caller); its sonar records stay. Whether that changed it."""
     data = bm.graph.edges[bm.ends(lid)]
     history = data["history"]
     first, first_mass, members = _merged_line(bm, lid, members, *line, evidence)
     mass = with_running(first_mass, bm.running_mass(lid), config.rule)
     attrs = {"mass": mass, "history": [first, *history[1:]], "members": members.tolist(), "fit": fit.tolist()}
-    if not _same(data, attrs):
-        bm.set_attrs(lid, **attrs)
+    if _same(data, attrs):
+        return False
+    bm.set_attrs(lid, **attrs)
+    return True
 
 
 def _same(data: dict[str, Any], attrs: dict[str, Any]) -> bool:
