@@ -128,38 +128,51 @@ def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> No
 def _affected_points(
     bm: BeliefMap, dissolved: dict[str, tuple[str, str]], merged: Merged, fresh: list[int], config: Config
 ) -> set[str]:
-    """The points whose lines change: the dissolved lines' ends, and the points near an end found anew.
-
-    Ends found anew are those of the ``fresh`` merged lines (those not refitted in place) and the fit ends of
-    the other lines at affected points; a point within twice the corner distance of one is affected in turn,
-    until no more are, so that every end that could join a corner with an end found anew is found anew too.
-    """
-    g = bm.graph
+    """The points whose lines change: the dissolved lines' ends, the points where a line's end would link (as
+    corners link ends) with an end of the ``fresh`` merged lines (those not refitted in place), and, in turn,
+    those where one would link with an end found anew at an affected point: a corner that a whole rebuild
+    would make of them is found anew with them."""
     affected = {n for ends in dissolved.values() for n in ends}
-    ends = [*merged.p[fresh].tolist(), *merged.q[fresh].tolist(), *_freed_ends(bm, affected, dissolved)]
-    reach = 2 * config.corners.distance + 1e-9
-    while ends:
-        xy = np.array(ends)
-        points = [n for n in surface_points_near(bm, xy, reach) if n not in affected]
-        if not points:
-            break
-        at = np.array([g.nodes[n]["xy"] for n in points])
-        d = np.hypot(*(at[:, None, :] - xy[None, :, :]).transpose(2, 0, 1)).min(axis=1)
-        reached = {points[i] for i in np.flatnonzero(d <= reach)}
-        affected |= reached
-        ends = _freed_ends(bm, reached, dissolved)
+    ends = np.concatenate([merged.p[fresh], merged.q[fresh]])
+    u = np.concatenate([merged.q[fresh] - merged.p[fresh]] * 2)
+    found = np.stack([ends, u / np.hypot(*u.T)[:, None]], axis=1)
+    freed = affected | _linked_points(bm, found, affected, config)
+    affected |= freed
+    while freed:
+        freed = _linked_points(bm, _line_ends(bm, freed, dissolved)[1], affected, config)
+        affected |= freed
     return affected
 
 
-def _freed_ends(bm: BeliefMap, points: set[str], dissolved: dict[str, tuple[str, str]]) -> list[list[float]]:
-    """The fit ends, at these points, of the lines not dissolved: the ends found anew when the points go."""
+def _line_ends(bm: BeliefMap, points: Iterable[str], dissolved: Iterable[str]) -> tuple[list[str], NDArray[np.float64]]:
+    """The lines at these points but the ``dissolved``, one row each: the point, and (k, 2, 2) the line's fit end
+    there and its unit direction."""
     g = bm.graph
-    ends = []
+    at, rows = [], []
     for n in sorted(points):
         for _, _, d in g.edges(n, data=True):
             if d["id"] not in dissolved:
-                ends.append(d["fit"][bm.ends(d["id"]).index(n)])
-    return ends
+                fit = d["fit"]
+                e = bm.ends(d["id"]).index(n)
+                at.append(n)
+                rows.append((fit[e], (fit[1][0] - fit[0][0], fit[1][1] - fit[0][1])))
+    ends = np.array(rows, dtype=float).reshape(-1, 2, 2)
+    ends[:, 1] /= np.hypot(*ends[:, 1].T)[:, None]
+    return at, ends
+
+
+def _linked_points(bm: BeliefMap, found: NDArray[np.float64], affected: set[str], config: Config) -> set[str]:
+    """The points not ``affected`` where a line's fit end links with one of the ends ``found`` anew (from
+    :func:`_line_ends`): within the corner distance, at least the corner angle from parallel."""
+    if not len(found):
+        return set()
+    points = [n for n in surface_points_near(bm, found[:, 0], 2 * config.corners.distance) if n not in affected]
+    owner, there = _line_ends(bm, points, ())
+    if not owner:
+        return set()
+    close = np.hypot(*(there[:, None, 0] - found[None, :, 0]).transpose(2, 0, 1)) <= config.corners.distance + 1e-9
+    across = np.abs(there[:, 1] @ found[:, 1].T) <= np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
+    return {owner[i] for i in np.flatnonzero((close & across).any(axis=1))}
 
 
 def _refit_in_place(
