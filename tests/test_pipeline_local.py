@@ -22,6 +22,7 @@ from evmap.sources.sim.scenario import default_scenario, load_scenario
 from evmap.sources.sim.world import World
 
 LOG = Path(__file__).parent / "data" / "logs" / "intel-excerpt.log.gz"
+CLUTTER_LOG = Path(__file__).parent / "data" / "logs" / "freiburg-079-excerpt.log.gz"
 
 
 @pytest.fixture(scope="module", params=["patrol", "log"])
@@ -51,9 +52,21 @@ def test_lines_are_the_merge_of_every_surviving_segment(patrol):
 
 
 def test_corners_are_those_of_every_line(patrol):
-    g = patrol.map.graph
+    assert_corners_of_every_line(patrol)
+
+
+def test_corners_of_a_cluttered_log_are_those_of_every_line():
+    """Corners of many short lines, whose ends come within the corner distance of ends of lines left as they
+    are: those ends are found anew with them (its lines are not all the whole merge's: a few related lines
+    that no later update came near stay apart)."""
+    assert_corners_of_every_line(run_log(CLUTTER_LOG, load_config("default")))
+
+
+def assert_corners_of_every_line(run):
+    """The map's corners are those the whole map's lines make."""
+    g = run.map.graph
     fits = np.array([d["fit"] for _, _, d in g.edges(data=True)])
-    whole = find_corners(fits[:, 0], fits[:, 1], patrol.config.corners)
+    whole = find_corners(fits[:, 0], fits[:, 1], run.config.corners)
     local = np.array(sorted(tuple(d["xy"]) for _, d in g.nodes(data=True) if d["kind"] == "corner"))
     np.testing.assert_allclose(local, np.array(sorted(map(tuple, whole.xy))), atol=1e-12)
 
