@@ -22,7 +22,11 @@ import numpy as np
 
 from evmap.maps.spatial import Bounds, SpatialIndex
 
-__all__ = ["MapIndex"]
+__all__ = ["POINT_CELL", "MapIndex"]
+
+POINT_CELL = 0.5
+"""The grid cell (metres) of the points' indexes: finer than the lines' (a point's box is a point, and the
+rebuilds look for points within a few centimetres of line ends, where clutter packs many corners)."""
 
 
 class MapIndex:
@@ -97,8 +101,10 @@ class MapIndex:
             p, q = xy[ends[:, 0]], xy[ends[:, 1]]
             points = np.hstack([xy, xy])
             self._indexes = {
-                "points": SpatialIndex.from_boxes(ids, points),
+                "points": SpatialIndex.from_boxes(ids, points, POINT_CELL),
                 "lines": SpatialIndex.from_boxes(list(self._lines), np.hstack([np.minimum(p, q), np.maximum(p, q)])),
-                "targets": SpatialIndex.from_boxes([n for n, t in zip(ids, target.tolist()) if t], points[target]),
+                "targets": SpatialIndex.from_boxes(
+                    [n for n, t in zip(ids, target.tolist()) if t], points[target], POINT_CELL
+                ),
             }
         return self._indexes

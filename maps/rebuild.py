@@ -2,16 +2,18 @@
 
 Every line holding a touched segment is dissolved, and its surviving segments
 are merged again with the touched ones (:mod:`evmap.maps.merging`); the lines
-meeting a dissolved line, or a new line near its ends, are detached and
-re-attached with the new ones, so that their corners (:mod:`evmap.maps.corners`)
-are found anew. A merged line's mass is recomputed from its merged length and
+meeting a dissolved line, or with an end near an end found anew (and so on, in
+turn), are detached and re-attached with the new ones, so that their corners
+(:mod:`evmap.maps.corners`) are found anew. A merged line's mass is recomputed from its merged length and
 relation (its pieces are not independent evidence); the sonar evidence of the
 lines it replaces carries over, at most one record per pose and source. A line
 seen from more than :data:`~evmap.maps.segments.CONSOLIDATE_POSES` poses is
 consolidated into its merged support (:meth:`~evmap.maps.segments.SegmentStore.consolidate`),
 which stands for them in later rebuilds: a rebuild merges what is near the
 change, a few rows per line, however long the line has been seen. A merged
-line that only moves a map line refits it in place (:mod:`evmap.maps.refit`);
+line that is a map line as it stands (its members and fit) leaves it in place,
+its points and neighbours untouched, and one that only moves a map line refits
+it in place (:mod:`evmap.maps.refit`); either takes the merged line's evidence;
 masses carry the running masses of their sonar records
 (:mod:`evmap.maps.running_mass`), so nothing is folded again.
 """
@@ -30,7 +32,7 @@ from evidential import MassFunction
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import Merged, merge_segments
 from evmap.maps.noise import NoiseEvidence, noise_evidence
-from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, surface_points_near
+from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, surface_points_near, unmoved
 from evmap.maps.running_mass import NOISE_STAGE, evidence_records, running_of, with_running
 from evmap.maps.segments import CONSOLIDATE_POSES, SegmentStore
 from evmap.maps.sensed import kept_features
@@ -43,6 +45,16 @@ __all__ = ["rebuild", "refresh_points"]
 
 Removed = list[tuple[tuple[float, float], list[dict[str, Any]], MassFunction | None]]
 """Removed corners: position, history and running mass of each."""
+
+
+@dataclass(frozen=True, eq=False)
+class _Evidence:
+    """The noise-elimination evidence of the merged lines: the verdicts, their fused masses as mass functions,
+    and how many poses saw each line."""
+
+    base: NoiseEvidence
+    masses: list[MassFunction]
+    seen: NDArray[np.intp]
 
 
 @dataclass
@@ -59,7 +71,8 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     """Re-merge the surviving segments near the change and re-find the corners there.
 
     ``touched`` are rows of the map's segment store just judged by noise
-    elimination. Returns the ids of every line (re)attached or refitted in place.
+    elimination. Returns the ids of every line (re)attached, refitted in place, or left in place with new
+    evidence: the lines whose end points' masses may change.
     """
     store = bm.segments
     g = bm.graph
@@ -70,6 +83,12 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     merged = merge_segments(store.p[pool], store.q[pool], config.merge, store.seen[pool])
     evidence = _merged_evidence(bm, pool, merged, config)
 
+    stays = unmoved(bm, pool, merged, dissolved)
+    new_evidence: set[str] = set()  # the lines that stay whose evidence changed
+    for k, lid in stays.items():
+        fit = np.array(g.edges[dissolved.pop(lid)]["fit"], dtype=float)
+        if _refit_in_place(bm, lid, pool[merged.groups[k]], fit, (merged, k), evidence, config):
+            new_evidence.add(lid)
     refitted, fits, near = refits(bm, pool, merged, dissolved, config)
     moves = [move for found in end_moves(bm, fits, near, config).values() for move in found or ()]
     for k, lid in refitted.items():
@@ -78,13 +97,13 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     for node, xy in moves:
         if bm.graph.nodes[node]["xy"] != xy:
             bm.set_attrs(node, xy=xy)
-    fresh = [k for k in range(len(merged.groups)) if k not in refitted]
+    fresh = [k for k in range(len(merged.groups)) if k not in refitted and k not in stays]
     affected = _affected_points(bm, dissolved, merged, fresh, config)
     histories = {lid: (g.edges[ends]["history"], bm.running_mass(lid)) for lid, ends in dissolved.items()}
     kept, removed = _detach(bm, dissolved, affected)
     lines = kept + _new_lines(bm, pool, merged, fresh, evidence, histories, config)
     store.line[touched[store.eliminated[touched]]] = ""
-    return _attach(bm, lines, removed, viewpoint, config) | set(refitted.values())
+    return _attach(bm, lines, removed, viewpoint, config) | set(refitted.values()) | new_evidence
 
 
 def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> None:
@@ -109,19 +128,51 @@ def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> No
 def _affected_points(
     bm: BeliefMap, dissolved: dict[str, tuple[str, str]], merged: Merged, fresh: list[int], config: Config
 ) -> set[str]:
-    """The points whose lines change: the dissolved lines' ends, and points near the ends of the ``fresh``
-    merged lines (those not refitted in place)."""
-    g = bm.graph
+    """The points whose lines change: the dissolved lines' ends, the points where a line's end would link (as
+    corners link ends) with an end of the ``fresh`` merged lines (those not refitted in place), and, in turn,
+    those where one would link with an end found anew at an affected point: a corner that a whole rebuild
+    would make of them is found anew with them."""
     affected = {n for ends in dissolved.values() for n in ends}
-    if fresh:
-        ends = np.concatenate([merged.p[fresh], merged.q[fresh]])
-        reach = 2 * config.corners.distance + 1e-9
-        points = surface_points_near(bm, ends, reach)
-        if points:
-            xy = np.array([g.nodes[n]["xy"] for n in points])
-            d = np.hypot(*(xy[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)).min(axis=1)
-            affected |= {points[i] for i in np.flatnonzero(d <= reach)}
+    ends = np.concatenate([merged.p[fresh], merged.q[fresh]])
+    u = np.concatenate([merged.q[fresh] - merged.p[fresh]] * 2)
+    found = np.stack([ends, u / np.hypot(*u.T)[:, None]], axis=1)
+    freed = affected | _linked_points(bm, found, affected, config)
+    affected |= freed
+    while freed:
+        freed = _linked_points(bm, _line_ends(bm, freed, dissolved)[1], affected, config)
+        affected |= freed
     return affected
+
+
+def _line_ends(bm: BeliefMap, points: Iterable[str], dissolved: Iterable[str]) -> tuple[list[str], NDArray[np.float64]]:
+    """The lines at these points but the ``dissolved``, one row each: the point, and (k, 2, 2) the line's fit end
+    there and its unit direction."""
+    g = bm.graph
+    at, rows = [], []
+    for n in sorted(points):
+        for _, _, d in g.edges(n, data=True):
+            if d["id"] not in dissolved:
+                fit = d["fit"]
+                e = bm.ends(d["id"]).index(n)
+                at.append(n)
+                rows.append((fit[e], (fit[1][0] - fit[0][0], fit[1][1] - fit[0][1])))
+    ends = np.array(rows, dtype=float).reshape(-1, 2, 2)
+    ends[:, 1] /= np.hypot(*ends[:, 1].T)[:, None]
+    return at, ends
+
+
+def _linked_points(bm: BeliefMap, found: NDArray[np.float64], affected: set[str], config: Config) -> set[str]:
+    """The points not ``affected`` where a line's fit end links with one of the ends ``found`` anew (from
+    :func:`_line_ends`): within the corner distance, at least the corner angle from parallel."""
+    if not len(found):
+        return set()
+    points = [n for n in surface_points_near(bm, found[:, 0], 2 * config.corners.distance) if n not in affected]
+    owner, there = _line_ends(bm, points, ())
+    if not owner:
+        return set()
+    close = np.hypot(*(there[:, None, 0] - found[None, :, 0]).transpose(2, 0, 1)) <= config.corners.distance + 1e-9
+    across = np.abs(there[:, 1] @ found[:, 1].T) <= np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
+    return {owner[i] for i in np.flatnonzero((close & across).any(axis=1))}
 
 
 def _refit_in_place(
@@ -130,18 +181,20 @@ def _refit_in_place(
     members: NDArray[np.intp],
     fit: NDArray[np.float64],
     line: tuple[Merged, int],
-    evidence: tuple[NoiseEvidence, NDArray[np.intp]],
+    evidence: _Evidence,
     config: Config,
-) -> None:
+) -> bool:
     """The line ``lid`` takes the merged line's members, support, noise-elimination evidence and ``fit``
-    (its end points are moved by the caller); its sonar records stay."""
+    (its end points are moved by the caller); its sonar records stay. Whether that changed it."""
     data = bm.graph.edges[bm.ends(lid)]
     history = data["history"]
     first, first_mass, members = _merged_line(bm, lid, members, *line, evidence)
     mass = with_running(first_mass, bm.running_mass(lid), config.rule)
     attrs = {"mass": mass, "history": [first, *history[1:]], "members": members.tolist(), "fit": fit.tolist()}
-    if not _same(data, attrs):
-        bm.set_attrs(lid, **attrs)
+    if _same(data, attrs):
+        return False
+    bm.set_attrs(lid, **attrs)
+    return True
 
 
 def _same(data: dict[str, Any], attrs: dict[str, Any]) -> bool:
@@ -177,9 +230,7 @@ def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[
     return kept, removed
 
 
-def _merged_evidence(
-    bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, config: Config
-) -> tuple[NoiseEvidence, NDArray[np.intp]]:
+def _merged_evidence(bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, config: Config) -> _Evidence:
     """The noise-elimination evidence of the merged lines, from their merged length and relation (other
     features from their longest member), and how many poses saw each."""
     store = bm.segments
@@ -191,7 +242,9 @@ def _merged_evidence(
     features |= kept_features(bm, longest)
     ends = np.concatenate([store.p[pool], store.q[pool]])
     space = bm.open_space_parts_near((*ends.min(axis=0), *ends.max(axis=0))) if len(pool) else shapely.MultiPolygon()
-    return noise_evidence(merged.p, merged.q, space, config, features), seen
+    base = noise_evidence(merged.p, merged.q, space, config, features)
+    masses = MassFunction.from_rows(bm.frame, range(1 << len(bm.frame)), base.fused, open_world=True)  # in bulk
+    return _Evidence(base, masses, seen)
 
 
 def _merged_line(
@@ -200,14 +253,13 @@ def _merged_line(
     members: NDArray[np.intp],
     merged: Merged,
     k: int,
-    evidence: tuple[NoiseEvidence, NDArray[np.intp]],
+    evidence: _Evidence,
 ) -> tuple[dict[str, Any], MassFunction, NDArray[np.intp]]:
     """The noise-elimination record of the merged line k (rows ``members``) as the line ``lid``, its mass,
     and its members: the rows, or their consolidated support if more than :data:`CONSOLIDATE_POSES` poses
     saw them."""
     store = bm.segments
-    base, seen = evidence
-    mass = MassFunction.from_dense(bm.frame, base.fused[k], open_world=True)
+    base, seen, mass = evidence.base, evidence.seen, evidence.masses[k]
     first = {
         "stage": NOISE_STAGE,
         "poses": sorted(set(store.pose[members].tolist())),
@@ -229,7 +281,7 @@ def _new_lines(
     pool: NDArray[np.intp],
     merged: Merged,
     fresh: list[int],
-    evidence: tuple[NoiseEvidence, NDArray[np.intp]],
+    evidence: _Evidence,
     histories: dict[str, tuple[list[dict[str, Any]], MassFunction | None]],
     config: Config,
 ) -> list[_Line]:

@@ -24,7 +24,7 @@ from evmap.sources.config_model import Config
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["SURFACE_KINDS", "NearEnds", "end_moves", "refits", "surface_points_near"]
+__all__ = ["SURFACE_KINDS", "NearEnds", "end_moves", "refits", "surface_points_near", "unmoved"]
 
 SURFACE_KINDS = ("corner", "endpoint")
 """The kinds of points that end lines (an unidentified object ends none)."""
@@ -38,6 +38,32 @@ def surface_points_near(bm: BeliefMap, xy: NDArray[np.float64], reach: float) ->
     for x, y in xy.tolist():
         found |= bm.near((x - reach, y - reach, x + reach, y + reach), "points")
     return sorted(n for n in found if g.nodes[n]["kind"] in SURFACE_KINDS)
+
+
+def unmoved(
+    bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, dissolved: dict[str, tuple[str, str]]
+) -> dict[int, str]:
+    """The merged lines that are a line of the map as it stands (merged line -> that line): made of exactly
+    that line's members, ends exactly at its fit's (either way round).
+
+    Merging the same members gives the same line, so such a line need not be dissolved: its ends, corners
+    and neighbours stay as they are (a rebuild near a corner of many short lines would otherwise take it
+    apart again at every scan); only its noise-elimination evidence is taken anew.
+    """
+    g = bm.graph
+    line = bm.segments.line[pool].tolist()
+    rows = pool.tolist()
+    found: dict[int, str] = {}
+    for k, (group, p, q) in enumerate(zip(merged.groups, merged.p.tolist(), merged.q.tolist(), strict=True)):
+        lid = line[group[0]]
+        if lid not in dissolved or any(line[i] != lid for i in group.tolist()):
+            continue
+        data = g.edges[dissolved[lid]]
+        fit, members = data["fit"], data["members"]
+        same_rows = len(members) == len(group) and set(members) == {rows[i] for i in group.tolist()}
+        if same_rows and [p, q] in (fit, fit[::-1]):
+            found[k] = lid
+    return found
 
 
 def refits(
@@ -66,7 +92,7 @@ def refits(
     line = store.line[pool].tolist()
     for k, (group, p, q) in enumerate(zip(merged.groups, merged.p.tolist(), merged.q.tolist(), strict=True)):
         owners = {line[i] for i in group.tolist()} - {""}
-        if len(owners) != 1:
+        if len(owners) != 1 or not owners <= dissolved.keys():
             continue
         (lid,) = owners
         data = g.edges[dissolved[lid]]

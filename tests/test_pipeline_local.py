@@ -13,14 +13,16 @@ from evmap.maps.belief_map import new_map
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import merge_segments
 from evmap.maps.noise import LATEST_POSES
-from evmap.maps.observation import observe
+from evmap.maps.observation import Observation, observe
 from evmap.maps.pipeline import touched_segments
 from evmap.sources.config import load_config
+from evmap.sources.readings import LslSegments
 from evmap.sources.relation import relation
 from evmap.sources.sim.scenario import default_scenario, load_scenario
 from evmap.sources.sim.world import World
 
 LOG = Path(__file__).parent / "data" / "logs" / "intel-excerpt.log.gz"
+CLUTTER_LOG = Path(__file__).parent / "data" / "logs" / "freiburg-079-excerpt.log.gz"
 
 
 @pytest.fixture(scope="module", params=["patrol", "log"])
@@ -50,9 +52,21 @@ def test_lines_are_the_merge_of_every_surviving_segment(patrol):
 
 
 def test_corners_are_those_of_every_line(patrol):
-    g = patrol.map.graph
+    assert_corners_of_every_line(patrol)
+
+
+def test_corners_of_a_cluttered_log_are_those_of_every_line():
+    """Corners of many short lines, whose ends come within the corner distance of ends of lines left as they
+    are: those ends are found anew with them (its lines are not all the whole merge's: a few related lines
+    that no later update came near stay apart)."""
+    assert_corners_of_every_line(run_log(CLUTTER_LOG, load_config("default")))
+
+
+def assert_corners_of_every_line(run):
+    """The map's corners are those the whole map's lines make."""
+    g = run.map.graph
     fits = np.array([d["fit"] for _, _, d in g.edges(data=True)])
-    whole = find_corners(fits[:, 0], fits[:, 1], patrol.config.corners)
+    whole = find_corners(fits[:, 0], fits[:, 1], run.config.corners)
     local = np.array(sorted(tuple(d["xy"]) for _, d in g.nodes(data=True) if d["kind"] == "corner"))
     np.testing.assert_allclose(local, np.array(sorted(map(tuple, whole.xy))), atol=1e-12)
 
@@ -96,3 +110,26 @@ def test_segments_eliminated_before_the_latest_poses_are_settled():
     touched = touched_segments(bm, new, bm.open_space_near(bm.extent()), config)
     assert not np.isin(old, touched).any() and np.isin(recent, touched).all()
     assert store.eliminated[old].all()  # still in the store, noise for good
+
+
+def laser_only(pose_index, p, q):
+    """A laser-only observation of the segments p-q from (1, 1)."""
+    n = len(p)
+    none, pose = np.full(n, ""), np.full(n, pose_index)
+    lsl = LslSegments(np.array(p, dtype=float), np.array(q, dtype=float), none, np.zeros(n, int), none, pose)
+    return Observation(pose_index, None, lsl, robot_pose=(1.0, 1.0, 0.0))
+
+
+def test_lines_a_scan_comes_near_but_leaves_as_they_are_stay_as_they_are():
+    """A corner of two walls and a piece of clutter whose both ends are within the corner distance (one joins
+    the corner, the other stays free); a later segment 8 cm from a wall, too far to merge with it, changes
+    none of them: same ids, same points, the corner the whole map's."""
+    bm = new_map(load_config("default"))
+    bm.update(laser_only(0, [[0, 0], [0, 0], [0.01, 0.04]], [[2, 0], [0, 2], [0.04, 0.01]]))
+    before = sorted((d["id"], u, v, d["fit"]) for u, v, d in bm.graph.edges(data=True))
+    assert [(lid, u, v) for lid, u, v, _ in before] == [("L1", "C1", "E1"), ("L2", "C1", "E2"), ("L3", "C1", "E3")]
+    bm.update(laser_only(1, [[0.5, 0.08]], [[1.5, 0.08]]))
+    after = sorted((d["id"], u, v, d["fit"]) for u, v, d in bm.graph.edges(data=True))
+    assert after[:3] == before and [lid for lid, *_ in after[3:]] == ["L4"]
+    fits = np.array([fit for *_, fit in after])
+    assert find_corners(fits[:, 0], fits[:, 1], bm.config.corners).xy.tolist() == [list(bm.graph.nodes["C1"]["xy"])]
