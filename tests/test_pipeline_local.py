@@ -63,12 +63,19 @@ def test_corners_of_a_cluttered_log_are_those_of_every_line():
 
 
 def assert_corners_of_every_line(run):
-    """The map's corners are those the whole map's lines make."""
+    """The map's corners are those the whole map's lines make, but for a second corner of two lines that
+    already meet at one: two edges between the same two points, which the graph cannot hold (the strict xfail
+    of ``test_points_end_the_right_number_of_lines``); one of its lines keeps a free end there."""
     g = run.map.graph
     fits = np.array([d["fit"] for _, _, d in g.edges(data=True)])
     whole = find_corners(fits[:, 0], fits[:, 1], run.config.corners)
-    local = np.array(sorted(tuple(d["xy"]) for _, d in g.nodes(data=True) if d["kind"] == "corner"))
-    np.testing.assert_allclose(local, np.array(sorted(map(tuple, whole.xy))), atol=1e-12)
+    local = np.array([d["xy"] for _, d in g.nodes(data=True) if d["kind"] == "corner"]).reshape(-1, 2)
+    lines = [set(ends[:, 0].tolist()) for ends in whole.ends]
+    close = np.hypot(*(local[:, None] - whole.xy[None]).transpose(2, 0, 1)) <= 1e-12  # (map, whole)
+    held = close.any(axis=0).tolist()
+    assert (close.sum(axis=1) == 1).all()  # every corner of the map is one of the whole lines' corners
+    for k in np.flatnonzero(~np.array(held, dtype=bool)):
+        assert any(held[j] and len(lines[k] & lines[j]) >= 2 for j in range(len(lines)) if j != k), whole.xy[k]
 
 
 @pytest.mark.parametrize(
