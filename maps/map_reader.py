@@ -82,7 +82,9 @@ class MapReader:
         parts.nodes, parts.edges = nodes, edges
         if parts.segments is not None and len(parts.segments):
             lines = {d["id"] for d in edges} | {""}
-            bad = [i for i, line in enumerate(parts.segments.line.tolist()) if line not in lines]
+            # an absorbed row names the line it was absorbed into, which a later update may have replaced
+            live = zip(parts.segments.line.tolist(), parts.segments.role.tolist(), strict=True)
+            bad = [i for i, (line, role) in enumerate(live) if role != "absorbed" and line not in lines]
             if bad:
                 problem = f"names line {parts.segments.line[bad[0]]!r}, which is not a line of the map"
                 raise self.fail(f"graph.segments.line[{bad[0]}]", problem)

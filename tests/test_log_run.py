@@ -87,6 +87,16 @@ def test_patrol_lines_are_one_line_per_wall(config):
     assert len(a) == 0
 
 
+def test_a_log_s_map_loads_as_it_was_saved(intel, tmp_path):
+    """Rows absorbed into a line's support keep the name of that line after a later scan replaced it."""
+    store = intel.map.segments
+    absorbed = store.role == "absorbed"
+    lines = {d["id"] for _, _, d in intel.map.graph.edges(data=True)}
+    assert any(line not in lines for line in store.line[absorbed].tolist())  # what the file must allow
+    intel.map.save(tmp_path / "map.json")
+    assert BeliefMap.load(tmp_path / "map.json").to_data() == intel.map.to_data()
+
+
 def test_evmap_log_writes_the_run_artefacts(tmp_path, capsys):
     out = tmp_path / "out"
     assert (
