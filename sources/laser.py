@@ -25,7 +25,8 @@
    of where its ray meets the cluster's line (two points always are).
    Merge: two neighbouring pieces of a cluster whose union still fits one line
    (every point within ``split_threshold + split_sigmas * sigma_r`` of the union's
-   fitted line) become one. Grow: each piece takes on the neighbouring points of
+   fitted line, its range within ``join_sigmas * sigma`` of where its ray meets
+   it) become one. Grow: each piece takes on the neighbouring points of
    its cluster that no piece holds (the remnants of splits too short to keep)
    while their range is within ``join_sigmas * sigma`` of where their ray meets
    its line (the noise is along the ray: a point seen at a grazing angle may lie
@@ -194,7 +195,7 @@ def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) ->
     tolerance = params.split_threshold + params.split_sigmas * params.sigma_r
     limit = params.join_sigmas * sigma
     pieces = _whole_clusters(points, pieces, limit, params.cluster_min_points)
-    pieces = _grow(points, _merge(points, pieces, tolerance), limit)
+    pieces = _grow(points, _merge(points, pieces, tolerance, limit), limit)
     p, q = _cut_by_end_rays(points, pieces)
     n = len(pieces)
     segments = LslSegments(
@@ -218,16 +219,26 @@ def _line(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.
     return centre, u, np.abs(d @ np.array([-u[1], u[0]]))
 
 
-def _merge(points: NDArray[np.float64], pieces: NDArray[np.intp], tolerance: float) -> NDArray[np.intp]:
-    """Neighbouring pieces (sharing a point or adjacent, no gap row between) merged while one line still fits."""
+def _merge(
+    points: NDArray[np.float64], pieces: NDArray[np.intp], tolerance: float, limit: NDArray[np.float64]
+) -> NDArray[np.intp]:
+    """Neighbouring pieces (sharing a point or adjacent, no gap row between) merged while one line still fits:
+    every point of the union within ``tolerance`` of its line, and its range within ``limit`` of where its ray
+    meets the line."""
     merged: list[list[int]] = []
     for a, b in pieces.tolist():
         joined = merged and a - merged[-1][1] <= 1 and not np.isnan(points[merged[-1][1] : a + 1]).any()
-        if joined and _line(points[merged[-1][0] : b + 1])[2].max() <= tolerance:
+        if joined and _fits_one_line(points[merged[-1][0] : b + 1], tolerance, limit[merged[-1][0] : b + 1]):
             merged[-1][1] = b
         else:
             merged.append([a, b])
     return np.array(merged, dtype=np.intp).reshape(-1, 2)
+
+
+def _fits_one_line(points: NDArray[np.float64], tolerance: float, limit: NDArray[np.float64]) -> bool:
+    """Whether every point lies within ``tolerance`` of the points' line and its range within ``limit``."""
+    centre, u, distance = _line(points)
+    return bool(distance.max() <= tolerance and (_range_misfit(points, centre, u) <= limit).all())
 
 
 def _whole_clusters(

@@ -91,6 +91,17 @@ def test_a_cluster_the_split_leaves_bare_is_one_segment_where_one_line_fits_it_w
     assert laser_segments(scan, LaserParams()).pieces.tolist() == pieces
 
 
+def test_pieces_stay_apart_where_one_line_would_miss_the_grazing_ranges() -> None:
+    # a wall 0.5 m to the left seen from 10 to 60 deg, bending away by 5 cm a metre beyond x = 1 m (beam 16):
+    # one line passes within 2 cm of every point, yet the grazing beams' ranges are off by more than 3 stds
+    angles = np.radians(np.arange(10.0, 61.0))
+    c, s = np.cos(angles), np.sin(angles)
+    bent = (0.5 - 0.05 * 1.0) / (s - 0.05 * c)
+    scan = LaserScan(0.0, np.zeros(3), angles, np.where(bent * c > 1.0, bent, 0.5 / s), 80.0)
+    assert laser_segments(scan, LaserParams()).pieces.tolist() == [[0, 16], [16, 50]]
+    assert laser_segments(scan, LaserParams(join_sigmas=10)).pieces.tolist() == [[0, 50]]
+
+
 def test_a_cluster_of_two_points_is_one_segment_between_them() -> None:
     scan = wall_scan()
     scan.ranges[10:12] = [1.0, 1.01]
