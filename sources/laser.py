@@ -90,7 +90,7 @@ class LaserParams(BaseModel):
     split_threshold: float = Field(0.01, gt=0, le=1, description="split distance from a piece's chord (m)")
     split_sigmas: float = Field(1.0, ge=0, le=10, description="split distance grows by this many range noise stds")
     cluster_min_points: int = Field(
-        3, ge=2, le=1000, description="fewest points of a cluster that no piece holds to be fitted whole"
+        2, ge=2, le=1000, description="fewest points of a cluster that no piece holds to be fitted whole"
     )
     join_sigmas: float = Field(
         3.0,

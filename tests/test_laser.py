@@ -105,7 +105,7 @@ def test_pieces_stay_apart_where_one_line_would_miss_the_grazing_ranges() -> Non
 def test_a_cluster_of_two_points_is_one_segment_between_them() -> None:
     scan = wall_scan()
     scan.ranges[10:12] = [1.0, 1.01]
-    segs = laser_segments(scan, LaserParams(cluster_min_points=2))
+    segs = laser_segments(scan, LaserParams())
     assert segs.pieces.tolist() == [[0, 9], [10, 11], [12, 40]]
     np.testing.assert_allclose(segs.segments.p[1], scan.points[10], atol=1e-12)
     np.testing.assert_allclose(segs.segments.q[1], scan.points[11], atol=1e-12)
