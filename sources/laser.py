@@ -93,7 +93,7 @@ class LaserParams(BaseModel):
         2, ge=2, le=1000, description="fewest points of a cluster that no piece holds to be fitted whole"
     )
     join_sigmas: float = Field(
-        3.0,
+        3.5,
         ge=0,
         le=10,
         description="a point no piece holds joins a neighbouring piece's line (a cluster without a piece is fitted "
