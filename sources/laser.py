@@ -62,7 +62,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from evmap.sources.logs.scan import LaserScan
 from evmap.sources.params import LslParams
-from evmap.sources.polyline import fit_polylines
+from evmap.sources.polyline import fit_pieces, fit_polylines, piece_members
 from evmap.sources.readings import LslSegments
 
 __all__ = ["UNKNOWN_TRUTH", "LaserParams", "LaserSegments", "Rays", "breakpoints", "laser_segments"]
@@ -251,24 +251,33 @@ def _whole_clusters(
     first = np.flatnonzero(valid & np.r_[True, ~valid[:-1]])
     last = np.flatnonzero(valid & np.r_[~valid[1:], True])
     bare = (last - first + 1 >= min_points) & ~np.isin(cluster[first], cluster[pieces[:, 0]])
-    whole = []
-    for a, b in zip(first[bare].tolist(), last[bare].tolist()):
-        centre, u, _ = _line(points[a : b + 1])
-        if (_range_misfit(points[a : b + 1], centre, u) <= limit[a : b + 1]).all():
-            whole.append([a, b])
-    return np.array(sorted(pieces.tolist() + whole), dtype=np.intp).reshape(-1, 2)
+    whole = np.column_stack([first[bare], last[bare]])
+    if len(whole):
+        p, q = fit_pieces(points, whole)  # a point of each cluster's line and another
+        members, owner, starts = piece_members(whole)
+        with np.errstate(invalid="ignore"):
+            u = (q - p) / np.hypot(*(q - p).T)[:, None]
+        fits = _range_misfit(points[members], p[owner], u[owner]) <= limit[members]
+        whole = whole[np.logical_and.reduceat(fits, starts)]
+    both = np.concatenate([pieces, whole])
+    return both[np.lexsort(both.T[::-1])]
 
 
 def _range_misfit(
     points: NDArray[np.float64], centre: NDArray[np.float64], u: NDArray[np.float64]
 ) -> NDArray[np.float64]:
-    """How far each point's range is from where its ray (from the origin) meets the line ``centre + s u``.
+    """How far each point's range is from where its ray (from the origin) meets the line ``centre + s u`` (one
+    line, or one per point).
 
     Infinite where the ray runs along the line or meets it behind the origin; NaN for NaN points.
     """
     r = np.hypot(points[:, 0], points[:, 1])
     with np.errstate(divide="ignore", invalid="ignore"):
-        meet = r * (centre[0] * u[1] - centre[1] * u[0]) / (points[:, 0] * u[1] - points[:, 1] * u[0])
+        meet = (
+            r
+            * (centre[..., 0] * u[..., 1] - centre[..., 1] * u[..., 0])
+            / (points[:, 0] * u[..., 1] - points[:, 1] * u[..., 0])
+        )
         return np.where(np.isnan(r) | (meet > 0), np.abs(r - meet), np.inf)
 
 
@@ -276,14 +285,17 @@ def _grow(points: NDArray[np.float64], pieces: NDArray[np.intp], limit: NDArray[
     """Each piece extended over the neighbouring points of its cluster that no piece holds, while their range is
     within ``limit`` (per point) of where their ray meets the piece's line."""
     grown = pieces.copy()
+    p, q = fit_pieces(points, pieces)  # a point of each piece's line and another
     for k, (a, b) in enumerate(pieces.tolist()):
-        centre, u, _ = _line(points[a : b + 1])
         low = grown[k - 1, 1] + 1 if k else 0
         high = pieces[k + 1, 0] - 1 if k + 1 < len(pieces) else len(points) - 1
+        if a <= low and b >= high:
+            continue
+        u = (q[k] - p[k]) / np.hypot(*(q[k] - p[k]))
         before, after = np.arange(a - 1, low - 1, -1), np.arange(b + 1, high + 1)  # nearest first
         grown[k] = (
-            a - _run_within(points[before], limit[before], centre, u),
-            b + _run_within(points[after], limit[after], centre, u),
+            a - _run_within(points[before], limit[before], p[k], u),
+            b + _run_within(points[after], limit[after], p[k], u),
         )
     return grown
 
