@@ -20,9 +20,10 @@
    pieces of fewer than ``min_points`` points are dropped; each piece gets its
    total-least-squares line.
 4. Whole clusters: a cluster of ``cluster_min_points`` or more that no piece
-   holds (its split left only pieces too short to keep; a cluster of two points)
-   becomes one piece when every point's range is within ``join_sigmas * sigma``
-   of where its ray meets the cluster's line (two points always are).
+   holds (its split left only pieces too short to keep) becomes one piece when
+   every point's range is within ``join_sigmas * sigma`` of where its ray meets
+   the cluster's line (with ``cluster_min_points`` 2, a cluster of two points is
+   one segment between them).
    Merge: two neighbouring pieces of a cluster whose union still fits one line
    (every point within ``split_threshold + split_sigmas * sigma_r`` of the union's
    fitted line, its range within ``join_sigmas * sigma`` of where its ray meets
@@ -90,10 +91,10 @@ class LaserParams(BaseModel):
     split_threshold: float = Field(0.01, gt=0, le=1, description="split distance from a piece's chord (m)")
     split_sigmas: float = Field(1.0, ge=0, le=10, description="split distance grows by this many range noise stds")
     cluster_min_points: int = Field(
-        2, ge=2, le=1000, description="fewest points of a cluster that no piece holds to be fitted whole"
+        3, ge=2, le=1000, description="fewest points of a cluster that no piece holds to be fitted whole"
     )
     join_sigmas: float = Field(
-        3.5,
+        3.0,
         ge=0,
         le=10,
         description="a point no piece holds joins a neighbouring piece's line (a cluster without a piece is fitted "
