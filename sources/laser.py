@@ -19,11 +19,19 @@
    ``sigma = sigma_r + sigma_per_metre * range`` the point's range noise std;
    pieces of fewer than ``min_points`` points are dropped; each piece gets its
    total-least-squares line.
-4. Merge: two neighbouring pieces of a cluster whose union still fits one line
+4. Whole clusters: a cluster of ``cluster_min_points`` or more that no piece
+   holds (its split left only pieces too short to keep) becomes one piece when
+   every point's range is within ``join_sigmas * sigma`` of where its ray meets
+   the cluster's line (with ``cluster_min_points`` 2, a cluster of two points is
+   one segment between them).
+   Merge: two neighbouring pieces of a cluster whose union still fits one line
    (every point within ``split_threshold + split_sigmas * sigma_r`` of the union's
-   fitted line) become one. Grow: each piece takes on the neighbouring points of
+   fitted line, its range within ``join_sigmas * sigma`` of where its ray meets
+   it) become one. Grow: each piece takes on the neighbouring points of
    its cluster that no piece holds (the remnants of splits too short to keep)
-   while they lie within that distance of its line.
+   while their range is within ``join_sigmas * sigma`` of where their ray meets
+   its line (the noise is along the ray: a point seen at a grazing angle may lie
+   near the line yet far from it in range).
 5. Ends: each line is cut by the rays of its piece's first and last points, so
    the segment spans, seen from the laser, exactly the beams it was fitted to.
 
@@ -55,7 +63,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from evmap.sources.logs.scan import LaserScan
 from evmap.sources.params import LslParams
-from evmap.sources.polyline import fit_polylines
+from evmap.sources.polyline import fit_pieces, fit_polylines, piece_members
 from evmap.sources.readings import LslSegments
 
 __all__ = ["UNKNOWN_TRUTH", "LaserParams", "LaserSegments", "Rays", "breakpoints", "laser_segments"]
@@ -82,6 +90,16 @@ class LaserParams(BaseModel):
     sigma_per_metre: float = Field(0.005, ge=0, le=1, description="range noise std grows by this per metre of range")
     split_threshold: float = Field(0.01, gt=0, le=1, description="split distance from a piece's chord (m)")
     split_sigmas: float = Field(1.0, ge=0, le=10, description="split distance grows by this many range noise stds")
+    cluster_min_points: int = Field(
+        3, ge=2, le=1000, description="fewest points of a cluster that no piece holds to be fitted whole"
+    )
+    join_sigmas: float = Field(
+        3.0,
+        ge=0,
+        le=10,
+        description="a point no piece holds joins a neighbouring piece's line (a cluster without a piece is fitted "
+        "whole) when its range is within this many range noise stds of where its ray meets the line",
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -176,7 +194,9 @@ def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) ->
     beam_of_row = np.full(len(points), -1)
     beam_of_row[order] = beams
     tolerance = params.split_threshold + params.split_sigmas * params.sigma_r
-    pieces = _grow(points, _merge(points, pieces, tolerance), tolerance)
+    limit = params.join_sigmas * sigma
+    pieces = _whole_clusters(points, pieces, limit, params.cluster_min_points)
+    pieces = _grow(points, _merge(points, pieces, tolerance, limit), limit)
     p, q = _cut_by_end_rays(points, pieces)
     n = len(pieces)
     segments = LslSegments(
@@ -200,32 +220,94 @@ def _line(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.
     return centre, u, np.abs(d @ np.array([-u[1], u[0]]))
 
 
-def _merge(points: NDArray[np.float64], pieces: NDArray[np.intp], tolerance: float) -> NDArray[np.intp]:
-    """Neighbouring pieces (sharing a point or adjacent, no gap row between) merged while one line still fits."""
+def _merge(
+    points: NDArray[np.float64], pieces: NDArray[np.intp], tolerance: float, limit: NDArray[np.float64]
+) -> NDArray[np.intp]:
+    """Neighbouring pieces (sharing a point or adjacent, no gap row between) merged while one line still fits:
+    every point of the union within ``tolerance`` of its line, and its range within ``limit`` of where its ray
+    meets the line."""
     merged: list[list[int]] = []
     for a, b in pieces.tolist():
         joined = merged and a - merged[-1][1] <= 1 and not np.isnan(points[merged[-1][1] : a + 1]).any()
-        if joined and _line(points[merged[-1][0] : b + 1])[2].max() <= tolerance:
+        if joined and _fits_one_line(points[merged[-1][0] : b + 1], tolerance, limit[merged[-1][0] : b + 1]):
             merged[-1][1] = b
         else:
             merged.append([a, b])
     return np.array(merged, dtype=np.intp).reshape(-1, 2)
 
 
-def _grow(points: NDArray[np.float64], pieces: NDArray[np.intp], tolerance: float) -> NDArray[np.intp]:
-    """Each piece extended over the neighbouring points of its cluster that no piece holds and its line fits."""
+def _fits_one_line(points: NDArray[np.float64], tolerance: float, limit: NDArray[np.float64]) -> bool:
+    """Whether every point lies within ``tolerance`` of the points' line and its range within ``limit``."""
+    centre, u, distance = _line(points)
+    return bool(distance.max() <= tolerance and (_range_misfit(points, centre, u) <= limit).all())
+
+
+def _whole_clusters(
+    points: NDArray[np.float64], pieces: NDArray[np.intp], limit: NDArray[np.float64], min_points: int
+) -> NDArray[np.intp]:
+    """The pieces, and each cluster (run between NaN rows) of ``min_points`` or more that no piece holds as one
+    more piece when every point's range is within ``limit`` of its line (along its ray)."""
+    valid = ~np.isnan(points[:, 0])
+    cluster = np.cumsum(~valid)  # the same number along a cluster's rows
+    first = np.flatnonzero(valid & np.r_[True, ~valid[:-1]])
+    last = np.flatnonzero(valid & np.r_[~valid[1:], True])
+    bare = (last - first + 1 >= min_points) & ~np.isin(cluster[first], cluster[pieces[:, 0]])
+    whole = np.column_stack([first[bare], last[bare]])
+    if len(whole):
+        p, q = fit_pieces(points, whole)  # a point of each cluster's line and another
+        members, owner, starts = piece_members(whole)
+        with np.errstate(invalid="ignore"):
+            u = (q - p) / np.hypot(*(q - p).T)[:, None]
+        fits = _range_misfit(points[members], p[owner], u[owner]) <= limit[members]
+        whole = whole[np.logical_and.reduceat(fits, starts)]
+    both = np.concatenate([pieces, whole])
+    return both[np.lexsort(both.T[::-1])]
+
+
+def _range_misfit(
+    points: NDArray[np.float64], centre: NDArray[np.float64], u: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """How far each point's range is from where its ray (from the origin) meets the line ``centre + s u`` (one
+    line, or one per point).
+
+    Infinite where the ray runs along the line or meets it behind the origin; NaN for NaN points.
+    """
+    r = np.hypot(points[:, 0], points[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        meet = (
+            r
+            * (centre[..., 0] * u[..., 1] - centre[..., 1] * u[..., 0])
+            / (points[:, 0] * u[..., 1] - points[:, 1] * u[..., 0])
+        )
+        return np.where(np.isnan(r) | (meet > 0), np.abs(r - meet), np.inf)
+
+
+def _grow(points: NDArray[np.float64], pieces: NDArray[np.intp], limit: NDArray[np.float64]) -> NDArray[np.intp]:
+    """Each piece extended over the neighbouring points of its cluster that no piece holds, while their range is
+    within ``limit`` (per point) of where their ray meets the piece's line."""
     grown = pieces.copy()
+    p, q = fit_pieces(points, pieces)  # a point of each piece's line and another
     for k, (a, b) in enumerate(pieces.tolist()):
-        centre, u, _ = _line(points[a : b + 1])
-        normal = np.array([-u[1], u[0]])
         low = grown[k - 1, 1] + 1 if k else 0
         high = pieces[k + 1, 0] - 1 if k + 1 < len(pieces) else len(points) - 1
-        while a > low and abs((points[a - 1] - centre) @ normal) <= tolerance:
-            a -= 1
-        while b < high and abs((points[b + 1] - centre) @ normal) <= tolerance:
-            b += 1
-        grown[k] = a, b
+        if a <= low and b >= high:
+            continue
+        u = (q[k] - p[k]) / np.hypot(*(q[k] - p[k]))
+        before, after = np.arange(a - 1, low - 1, -1), np.arange(b + 1, high + 1)  # nearest first
+        grown[k] = (
+            a - _run_within(points[before], limit[before], p[k], u),
+            b + _run_within(points[after], limit[after], p[k], u),
+        )
     return grown
+
+
+def _run_within(
+    points: NDArray[np.float64], limit: NDArray[np.float64], centre: NDArray[np.float64], u: NDArray[np.float64]
+) -> int:
+    """How many of ``points``, from the first on, lie in a row within ``limit`` of the line ``centre + s u``
+    (range along the ray); a NaN point ends the row."""
+    fits = _range_misfit(points, centre, u) <= limit
+    return len(fits) if fits.all() else int(np.argmin(fits))
 
 
 def _cut_by_end_rays(

@@ -62,6 +62,56 @@ def test_noisy_corner_is_covered_within_the_noise() -> None:
     assert fit.coverage > 0.95 and fit.error < 0.015
 
 
+def wall_scan() -> LaserScan:
+    """A wall 2 m ahead seen from the origin over -20 to 20 deg, 1 deg beams."""
+    angles = np.radians(np.arange(-20.0, 21.0))
+    return LaserScan(0.0, np.zeros(3), angles, 2.0 / np.cos(angles), 80.0)
+
+
+@pytest.mark.parametrize(("extra", "joins"), [(0.05, True), (0.06, True), (0.07, False), (0.12, False)])
+def test_a_cluster_end_joins_the_wall_while_its_range_is_within_the_noise(extra: float, joins: bool) -> None:
+    # the last point, farther by `extra` along its ray, splits off the wall as a piece too short to keep;
+    # its noise std at 2.13 m is 0.01 + 0.005 * 2.13 = 2.06 cm, so 3 stds reach 6.2 cm
+    scan = wall_scan()
+    scan.ranges[-1] += extra
+    segs = laser_segments(scan, LaserParams())
+    assert segs.pieces.tolist() == [[0, 40 if joins else 39]]
+    assert scan_fit(scan, segs.segments.p, segs.segments.q).hit[-1] == joins
+    assert laser_segments(scan, LaserParams(join_sigmas=0)).pieces.tolist() == [[0, 39]]
+
+
+@pytest.mark.parametrize(("bulge", "pieces"), [(0.03, [[0, 9], [10, 12], [13, 40]]), (0.10, [[0, 9], [13, 40]])])
+def test_a_cluster_the_split_leaves_bare_is_one_segment_where_one_line_fits_it_within_the_noise(
+    bulge: float, pieces: list[list[int]]
+) -> None:
+    # three points 1 m ahead of the wall, the middle one nearer by `bulge`: the split leaves two 2-point pieces;
+    # the line of all three is off by 2/3 and 1/3 of the bulge, within 3 noise stds (4.5 cm) for 3 cm, not 10
+    scan = wall_scan()
+    scan.ranges[10:13] = [1.0, 1.0 - bulge, 1.0]
+    assert laser_segments(scan, LaserParams()).pieces.tolist() == pieces
+
+
+def test_pieces_stay_apart_where_one_line_would_miss_the_grazing_ranges() -> None:
+    # a wall 0.5 m to the left seen from 10 to 60 deg, bending away by 5 cm a metre beyond x = 1 m (beam 16):
+    # one line passes within 2 cm of every point, yet the grazing beams' ranges are off by more than 3 stds
+    angles = np.radians(np.arange(10.0, 61.0))
+    c, s = np.cos(angles), np.sin(angles)
+    bent = (0.5 - 0.05 * 1.0) / (s - 0.05 * c)
+    scan = LaserScan(0.0, np.zeros(3), angles, np.where(bent * c > 1.0, bent, 0.5 / s), 80.0)
+    assert laser_segments(scan, LaserParams()).pieces.tolist() == [[0, 16], [16, 50]]
+    assert laser_segments(scan, LaserParams(join_sigmas=10)).pieces.tolist() == [[0, 50]]
+
+
+def test_a_cluster_of_two_points_is_one_segment_between_them() -> None:
+    scan = wall_scan()
+    scan.ranges[10:12] = [1.0, 1.01]
+    segs = laser_segments(scan, LaserParams(cluster_min_points=2))
+    assert segs.pieces.tolist() == [[0, 9], [10, 11], [12, 40]]
+    np.testing.assert_allclose(segs.segments.p[1], scan.points[10], atol=1e-12)
+    np.testing.assert_allclose(segs.segments.q[1], scan.points[11], atol=1e-12)
+    assert laser_segments(scan, LaserParams(cluster_min_points=3)).pieces.tolist() == [[0, 9], [12, 40]]
+
+
 def test_no_return_scan_gives_no_segments() -> None:
     scan = LaserScan(0.0, np.zeros(3), np.linspace(-1, 1, 5), np.full(5, np.nan), 80.0)
     segs = laser_segments(scan, LaserParams())
