@@ -22,8 +22,8 @@ Only the part of the map near the new observation is rebuilt, so an update
 costs what the observation touches. Rebuilding the whole map from its stored
 segments gives the same lines and corners on the simulated tours and the log
 excerpt the tests run; over a long log a few related lines that no later update
-came near stay apart (763 lines where a whole rebuild makes 759 after the first
-300 Intel scans, the corners those of the lines).
+came near stay apart (they are among the related pairs ``benchmarks/bench_logs.py``
+counts), and the corners are those of the lines.
 """
 
 from __future__ import annotations
