@@ -70,8 +70,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     As the process's command (``argv`` None), what a command imported stays out of the garbage collector's
     passes for the rest of the process (:func:`_imports`), and OpenBLAS (numpy's linear algebra) runs on one
     thread unless ``OPENBLAS_NUM_THREADS`` says otherwise: evmap's matrices are small, and starting the threads
-    it would use costs more than they give (Dask's workers inherit the setting: one thread per worker process). Called from Python with ``argv``, the collector gets it back when the command returns and the
-    environment is left alone.
+    it would use costs more than they give (Dask's workers inherit the setting: one thread per worker process).
+    Called from Python with ``argv``, the collector gets it back when the command returns and the environment
+    is left alone.
     """
     if argv is None:
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
