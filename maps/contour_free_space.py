@@ -10,7 +10,10 @@ the pose), each ray is one of:
 - **short**: its point lies in front: something nearer hid the segment;
 - **none**: nothing returned although the segment is within the sensor's range:
   an opaque surface there would have returned a point, so the ray went through
-  it as a passing one did.
+  it as a passing one did. So too a ray that went on beyond its point
+  (:func:`went_on`: a sensor that reports every surface a ray lit, whose point
+  lies on a segment judged noise, the farthest of its bearing), for the
+  segments behind that point.
 
 The poses are those whose readings reach the segment, the latest
 :data:`~evmap.maps.noise.LATEST_POSES` of them (:func:`evmap.maps.noise.judge`).
@@ -48,9 +51,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed
-from evmap.sources.geometry import crossings
+from evmap.sources.geometry import crossings, point_segment_distances
 
-__all__ = ["RayParams", "RayTally", "ray_features", "ray_tally", "stripe_edges"]
+__all__ = ["RayParams", "RayTally", "ray_features", "ray_tally", "stripe_edges", "went_on"]
 
 
 @dataclass(frozen=True)
@@ -84,11 +87,58 @@ class RayTally:
     other_hidden: NDArray[np.intp]  # rays that end in front of the segment
 
 
+def went_on(
+    s: Sensed,
+    noise: tuple[NDArray[np.float64], NDArray[np.float64]],
+    kept: tuple[NDArray[np.float64], NDArray[np.float64]],
+    params: RayParams,
+) -> NDArray[np.bool_]:
+    """(K,) the rays of one pose that went on beyond their point and returned nothing more within range.
+
+    Only a sensor that reports every surface a ray lit (:attr:`Sensed.all_returns`: a camera keeping every
+    stripe pixel above its threshold) tells this: a ray whose point lies on one of the pose's segments judged
+    noise (``noise``: their ends p, q; within ``tolerance`` and three range-noise stds), on none of those kept
+    (``kept``), and is the farthest point of its bearing, lit no opaque surface beyond it within range, or the
+    sensor would have reported that point too. A sunlit patch is no surface: the ray goes on through it. A
+    sensor with one return a ray (a laser; a camera keeping a column's brightest pixel) tells nothing of what
+    lies beyond its point: no ray of it went on.
+
+    >>> bearing = np.array([0.0, 0.0, 0.1, 0.2])  # two points at bearing 0: a patch at 1 m, a wall at 3 m
+    >>> s = Sensed(0, np.zeros(2), bearing, np.array([1.0, 3.0, 1.0, 0.9]), None, all_returns=True)
+    >>> patch = np.array([[1.0, -0.5]]), np.array([[1.0, 0.5]])  # judged noise
+    >>> went_on(s, patch, (np.zeros((0, 2)), np.zeros((0, 2))), RayParams()).tolist()
+    [False, False, True, False]
+
+    The first ray's point on the patch has the wall beyond it; the last ray's point is off the patch.
+    """
+    out = np.zeros(len(s.range), dtype=bool)
+    ok = np.flatnonzero(np.isfinite(s.range))
+    if not s.all_returns or not len(noise[0]) or not len(ok):
+        return out
+    _, column = np.unique(s.bearing[ok], return_inverse=True)
+    farthest = np.full(column.max() + 1, -np.inf)
+    np.maximum.at(farthest, column, s.range[ok])
+    ok = ok[s.range[ok] >= farthest[column]]
+    r = s.range[ok]
+    xy = s.origin + r[:, None] * np.column_stack([np.cos(s.bearing[ok]), np.sin(s.bearing[ok])])
+    tol = params.tolerance + 3 * params.range_noise * r
+    on = point_segment_distances(xy[:, None], noise[0][None], noise[1][None]).min(axis=1) <= tol
+    if len(kept[0]) and on.any():
+        on[on] = point_segment_distances(xy[on, None], kept[0][None], kept[1][None]).min(axis=1) > tol[on]
+    out[ok[on]] = True
+    return out
+
+
 def _crossings(
-    p: NDArray[np.float64], q: NDArray[np.float64], poses: Sequence[Sensed], params: RayParams
+    p: NDArray[np.float64],
+    q: NDArray[np.float64],
+    poses: Sequence[Sensed],
+    params: RayParams,
+    beyond: Sequence[NDArray[np.bool_]] | None = None,
 ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
     """(segment, pose, kind) of every ray of the ``poses`` (their positions in the sequence) crossing a segment's
-    interior; kind 0 ends, 1 passes, 2 short, 3 none.
+    interior; kind 0 ends, 1 passes, 2 short, 3 none. ``beyond``: per pose, the rays that went on beyond their
+    point (:func:`went_on`): none, where they cross a segment behind their point within range.
 
     All poses at once: each pose's bearings, doubled over two turns, are laid end to end ``4 pi`` apart, so that
     one sorted array and one ``searchsorted`` find every (segment, pose) pair's rays.
@@ -99,6 +149,7 @@ def _crossings(
     starts = np.r_[0, np.cumsum(sizes)[:-1]]
     bearing = np.concatenate([np.zeros(0), *(s.bearing for s in poses)])
     rng = np.concatenate([np.zeros(0), *(s.range for s in poses)])
+    flags = np.concatenate([np.zeros(0, dtype=bool), *(beyond or (np.zeros(len(s.range), dtype=bool) for s in poses))])
     shift = 4 * np.pi * np.arange(m)
     doubled = np.concatenate(
         [np.zeros(0), *(np.r_[s.bearing, s.bearing + 2 * np.pi] + shift[k] for k, s in enumerate(poses))]
@@ -131,15 +182,23 @@ def _crossings(
     across = (r - t) * sin  # the point's distance beyond the segment, across it
     tol = params.tolerance + 3 * params.range_noise * t * sin
     kind = np.select([np.isnan(r), across > tol, across < -tol], [3, 1, 2], 0)
-    kind[np.isnan(r) & (t > params.max_range)] = 4  # out of range: not counted
+    kind[(kind == 2) & flags[ray]] = 3  # it went on beyond its point, through the segment
+    kind[((kind == 3) & (t > params.max_range))] = 4  # out of range: not counted
     keep = inside & (kind < 4)
     return seg[keep], k[keep], kind[keep]
 
 
 def ray_tally(
-    p: NDArray[np.float64], q: NDArray[np.float64], pose: NDArray[np.intp], poses: Sequence[Sensed], params: RayParams
+    p: NDArray[np.float64],
+    q: NDArray[np.float64],
+    pose: NDArray[np.intp],
+    poses: Sequence[Sensed],
+    params: RayParams,
+    beyond: Sequence[NDArray[np.bool_]] | None = None,
 ) -> RayTally:
     """Count, for segments p-q seen from ``pose``, the rays of every sensed pose by kind (module doc).
+
+    ``beyond``: per pose of ``poses``, the rays that went on beyond their point (:func:`went_on`); none if not given.
 
     >>> from evmap.sources.readings import SonarScan
     >>> from evmap.sources.params import SonarParams
@@ -154,7 +213,7 @@ def ray_tally(
     n, m = len(p), len(poses)
     by_kind = np.zeros((n, m, 4), dtype=np.intp)
     if n and m:
-        seg, k, kind = _crossings(p, q, poses, params)
+        seg, k, kind = _crossings(p, q, poses, params, beyond)
         np.add.at(by_kind, (seg, k, kind), 1)
     other = pose[:, None] != np.array([s.pose_index for s in poses], dtype=np.intp)[None, :]
     through = by_kind[:, :, 1] + by_kind[:, :, 3]

@@ -18,9 +18,9 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from evidential import combine_batch
-from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally, stripe_edges
+from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally, stripe_edges, went_on
 from evmap.maps.merging import related_pairs
-from evmap.maps.sensed import SENSED_FEATURES, keep_features, sensed_near
+from evmap.maps.sensed import SENSED_FEATURES, Sensed, keep_features, sensed_near
 from evmap.maps.sonar_forward import SonarForwardParams, free_ends, sonar_forward
 from evmap.sources.config_model import Config
 from evmap.sources.params import MergeParams
@@ -114,6 +114,10 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
     ``contour_free`` and ``lsl_persistence`` (:mod:`evmap.maps.contour_free_space`)
     and ``sonar_forward`` (:mod:`evmap.maps.sonar_forward`), from the readings of
     the latest :data:`LATEST_POSES` poses that reach the segments.
+
+    Rays of a sensor that reports every surface a ray lit go on beyond points on the segments judged noise
+    (:func:`~evmap.maps.contour_free_space.went_on`); when this judgement finds more of them noise, the
+    contour's features are computed again with those rays, and the segments judged again.
     """
     store = bm.segments
     if not len(ids):
@@ -134,19 +138,37 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
     poses = sensed_near(bm, (*lo, *hi), config.sensors.lsl.max_range, LATEST_POSES)
     lsl = config.sensors.lsl
     params = RayParams(range_noise=lsl.range_noise, max_range=lsl.max_range)
-    if read & {"contour_free", "lsl_persistence"}:
-        features |= ray_features(ray_tally(store.p[ids], store.q[ids], store.pose[ids], poses, params), params)
+    rays = read & {"contour_free", "lsl_persistence"}
+    if rays:
+        features |= _ray_features(store, ids, poses, params)
     if "sonar_forward" in read:
         sonar = SonarForwardParams()
         free = free_ends(store.p[ids], store.q[ids], store.p[near], store.q[near], sonar.end_clearance)
         free &= stripe_edges(store.p[ids], store.q[ids], store.pose[ids], poses, params)
         features["sonar_forward"] = sonar_forward(store.p[ids], store.q[ids], free, poses, sonar)
-    keep_features(bm, ids, {name: features[name] for name in SENSED_FEATURES if name in features})
     ev = noise_evidence(store.p[ids], store.q[ids], space, config, features)
+    if rays and any(s.all_returns for s in poses) and (ev.eliminated & ~store.eliminated[ids]).any():
+        store.eliminated[ids] = ev.eliminated  # a second look, through what this judgement found noise
+        features |= _ray_features(store, ids, poses, params)
+        ev = noise_evidence(store.p[ids], store.q[ids], space, config, features)
+    keep_features(bm, ids, {name: features[name] for name in SENSED_FEATURES if name in features})
     store.relation[ids] = ev.relation
     store.mass[ids] = ev.fused
     store.conflict[ids] = ev.conflict
     store.eliminated[ids] = ev.eliminated
+
+
+def _ray_features(
+    store: SegmentStore, ids: NDArray[np.intp], poses: list[Sensed], params: RayParams
+) -> dict[str, NDArray[np.str_]]:
+    """``contour_free`` and ``lsl_persistence`` of the segments ``ids``, the rays that went on beyond points on
+    each pose's segments now judged noise counted as going through what lies behind them."""
+    beyond = []
+    for s in poses:
+        rows = np.flatnonzero(store.pose == s.pose_index) if s.all_returns else np.zeros(0, dtype=np.intp)
+        noise, kept = rows[store.eliminated[rows]], rows[~store.eliminated[rows]]
+        beyond.append(went_on(s, (store.p[noise], store.q[noise]), (store.p[kept], store.q[kept]), params))
+    return ray_features(ray_tally(store.p[ids], store.q[ids], store.pose[ids], poses, params, beyond), params)
 
 
 def _near_each(store: SegmentStore, ids: NDArray[np.intp], reach: float) -> NDArray[np.intp]:

@@ -51,6 +51,9 @@ class Observation:
     rays : (K, 2) the contour sensor's rays, if it gives them: world bearing (rad)
         from the pose and measured range (m, NaN for no return) of every ray;
         the free space of the contour and its evidence are made from them.
+    all_returns : the contour sensor reports every surface a ray lit within its range, not only one (a
+        camera that keeps every stripe pixel above its threshold): the farthest point of a bearing is
+        then the last thing the ray met, and beyond it the ray returned nothing.
     robot_pose : (3,) x, y (m), heading (rad) of the robot; needed without a
         sonar scan, else it must be the scan's pose.
     """
@@ -61,6 +64,7 @@ class Observation:
     features: Mapping[str, ArrayLike] = field(default_factory=dict)
     rays: NDArray[np.float64] | None = None
     robot_pose: ArrayLike | None = None
+    all_returns: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.pose_index, int | np.integer) or self.pose_index < 0:
@@ -94,6 +98,8 @@ def observe(world: World, pose_index: int, config: Config) -> Observation:
 
     The scenario's ``sensors`` section overrides the config's sensor parameters;
     all noise comes from the scenario's seed (sonar: stream :data:`SONAR_STREAM`).
+    The stripe's camera reports all returns under the scenario's ``sensors.lsl.detector``
+    ``threshold`` (every pixel above it), one per column under ``column_max``.
     The config's ``extra_sensors`` are simulated too and bring their features.
 
     >>> from evmap.sources.config import load_config
@@ -107,7 +113,8 @@ def observe(world: World, pose_index: int, config: Config) -> Observation:
     scan = simulate_scan(world.surfaces(), world.poses[pose_index], sonar, rng=rng)
     segments, rays = observe_stripe(world, pose_index, lsl)
     features = simulate_features(world, pose_index, config.extra_sensors, segments, config.name)
-    return Observation(pose_index, scan, segments, features, rays=rays)
+    all_returns = world.scenario.sensors.lsl.detector == "threshold"
+    return Observation(pose_index, scan, segments, features, rays=rays, all_returns=all_returns)
 
 
 def observation_from_arrays(
@@ -119,6 +126,7 @@ def observation_from_arrays(
     sensors: Mapping[str, Mapping[str, ArrayLike]] | None = None,
     sonar: tuple[ArrayLike, ArrayLike] | None = None,
     rays: ArrayLike | None = None,
+    all_returns: bool = False,
 ) -> Observation:
     """One pose's sensing from plain arrays: the one call that brings a robot's readings into a map.
 
@@ -133,6 +141,8 @@ def observation_from_arrays(
     sonar : ``(angles, ranges)`` of a rotating sonar at the pose, world bearings (rad) and ranges (m, the
         sonar model's ``max_range`` or more for no echo); ``None`` skips the sonar stages.
     rays : (K, 2) the contour sensor's rays, world bearing (rad) and range (m, NaN for no return), if known.
+    all_returns : the rays hold every surface each bearing lit within range, not only the first
+        (:class:`Observation`); a laser range finder gives one return a beam: False.
 
     Raises
     ------
@@ -170,4 +180,4 @@ def observation_from_arrays(
         scan = SonarScan.from_readings(angles, ranges, config.sensors.sonar, pose=robot)
     features = features_from_arrays(config.extra_sensors, sensors or {}, lsl.p, lsl.q)
     given = None if rays is None else np.asarray(rays, dtype=float).reshape(-1, 2)
-    return Observation(pose_index, scan, lsl, features, rays=given, robot_pose=robot)
+    return Observation(pose_index, scan, lsl, features, rays=given, robot_pose=robot, all_returns=bool(all_returns))

@@ -61,6 +61,8 @@ class Sensed:
     bearing : (K,) world bearing of every stripe ray, wrapped to [-pi, pi), sorted.
     range : (K,) its measured range (m), NaN where nothing returned.
     sonar : the pose's sonar scan; None without sonar.
+    all_returns : the rays hold every surface a bearing lit within range (:attr:`Observation.all_returns
+        <evmap.maps.observation.Observation>`), not only one.
     """
 
     pose_index: int
@@ -68,6 +70,7 @@ class Sensed:
     bearing: NDArray[np.float64]
     range: NDArray[np.float64]
     sonar: SonarScan | None
+    all_returns: bool = False
 
     @cached_property
     def reach(self) -> float:
@@ -101,7 +104,9 @@ def remember(bm: BeliefMap, obs: Observation) -> Sensed:
     rays = np.zeros((0, 2)) if obs.rays is None else np.asarray(obs.rays, dtype=float).reshape(-1, 2)
     bearing = (rays[:, 0] + np.pi) % (2 * np.pi) - np.pi
     order = np.argsort(bearing, kind="stable")
-    kept = Sensed(int(obs.pose_index), np.array(obs.pose[:2]), bearing[order], rays[order, 1], obs.sonar)
+    kept = Sensed(
+        int(obs.pose_index), np.array(obs.pose[:2]), bearing[order], rays[order, 1], obs.sonar, bool(obs.all_returns)
+    )
     _memory(bm)[kept.pose_index] = kept
     if bm in _PLACES:
         poses, origin, reach = _PLACES[bm]
@@ -203,7 +208,8 @@ def sensed_json(bm: BeliefMap) -> dict[str, Any] | None:
                 "params": s.sonar.params.model_dump(),
             }
         record = {"pose_index": s.pose_index, "origin": s.origin.tolist(), "bearing": s.bearing.tolist()}
-        records.append({**record, "range": _floats(s.range), "sonar": sonar})
+        record |= {"range": _floats(s.range), "sonar": sonar}
+        records.append(record | {"all_returns": True} if s.all_returns else record)
     features = {name: column.tolist() for name, column in _FEATURES.get(bm, {}).items()}
     return {"poses": records, "features": features}
 
@@ -232,13 +238,16 @@ def sensed_from_json(data: Any) -> tuple[list[Sensed], dict[str, NDArray[np.str_
                 params = SonarParams(**sonar["params"])
                 scan = SonarScan.from_readings(sonar["angles"], sonar["ranges"], params, pose=sonar["pose"])
             index = record["pose_index"]
+            all_returns = record.get("all_returns", False)
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"poses[{k}]: {exc}") from None
         if len(bearing) != len(rng):
             raise ValueError(f"poses[{k}]: bearing and range have {len(bearing)} and {len(rng)} entries")
         if type(index) is not int or index < 0:
             raise ValueError(f"poses[{k}].pose_index: a pose index is a whole number >= 0, got {index!r}")
-        kept.append(Sensed(index, origin, bearing, rng, scan))
+        if type(all_returns) is not bool:
+            raise ValueError(f"poses[{k}].all_returns: must be true or false, got {all_returns!r}")
+        kept.append(Sensed(index, origin, bearing, rng, scan, all_returns))
     features = data.get("features", {})
     if not isinstance(features, dict) or not set(features) <= set(SENSED_FEATURES):
         raise ValueError(f"features: must map some of {sorted(SENSED_FEATURES)} to lists of values")

@@ -75,7 +75,9 @@ def test_a_segment_is_judged_by_the_latest_poses_that_reach_it(config):
     bm = new_map(config)
     for k, x in enumerate([0.0, 1.0, 30.0, 2.0, 3.0]):  # pose 2 is 30 m away: its 5 m rays reach nothing here
         rays = np.column_stack([np.linspace(-1, 1, 5), np.full(5, 5.0)])
-        remember(bm, SimpleNamespace(pose_index=k, pose=np.array([x, 0.0, 0.0]), rays=rays, sonar=None))
+        remember(
+            bm, SimpleNamespace(pose_index=k, pose=np.array([x, 0.0, 0.0]), rays=rays, sonar=None, all_returns=False)
+        )
     box = (0.0, -1.0, 4.0, 1.0)
     assert [s.pose_index for s in sensed_near(bm, box, 0.0, latest=10)] == [0, 1, 3, 4]
     assert [s.pose_index for s in sensed_near(bm, box, 0.0, latest=2)] == [3, 4]
