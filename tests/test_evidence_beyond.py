@@ -23,17 +23,7 @@ from evmap.sources.sim.world import World
 
 DEFAULT = "configs/default.yaml"
 
-# a wall at x = 3 and a sunlit patch in front of it: the real stripe is behind the phantoms
-SCENE = """
-version: 1
-name: patch
-seed: 4
-world:
-  walls: [{id: back, points: [[3, -3], [3, 3]]}]
-  sunlight: [{polygon: [[1.5, -0.6], [2.3, -0.6], [2.3, 0.6], [1.5, 0.6]], lines: 8, length: [0.15, 0.3]}]
-robot:
-  poses: [[0, 0, 0], [0.3, -1.2, 0]]
-"""
+SCENE = (Path(__file__).parent / "scenarios" / "sunlit_patch.yaml").read_text()  # the stripe behind phantoms
 
 
 def _world(detector: str | None = None) -> World:

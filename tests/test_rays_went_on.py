@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -66,16 +67,7 @@ def test_a_segment_behind_pixels_that_went_on_is_gone_through() -> None:
     assert hidden.other_hidden[0, 0] > 0 and hidden.passes[0] == 0
 
 
-SCENE = """
-version: 1
-name: patch
-seed: 4
-world:
-  walls: [{id: back, points: [[3, -3], [3, 3]]}]
-  sunlight: [{polygon: [[1.5, -0.6], [2.3, -0.6], [2.3, 0.6], [1.5, 0.6]], lines: 8, length: [0.15, 0.3]}]
-robot:
-  poses: [[0, 0, 0]]
-"""
+SCENE = (Path(__file__).parent / "scenarios" / "sunlit_patch.yaml").read_text()  # only its pose 0 is observed
 
 
 def test_the_threshold_camera_reports_all_returns_and_the_map_keeps_it() -> None:
