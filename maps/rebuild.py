@@ -129,12 +129,14 @@ def _affected_points(
     bm: BeliefMap, dissolved: dict[str, tuple[str, str]], merged: Merged, fresh: list[int], config: Config
 ) -> set[str]:
     """The points whose lines change: the dissolved lines' ends, the points where a line's end would link (as
-    corners link ends) with an end of the ``fresh`` merged lines (those not refitted in place), and, in turn,
+    corners link ends) with an end of the ``fresh`` merged lines (those not refitted in place) or of a dissolved
+    line (a corner it made with a line it shares both points with, where it had to keep a free end), and, in turn,
     those where one would link with an end found anew at an affected point: a corner that a whole rebuild
     would make of them is found anew with them."""
     affected = {n for ends in dissolved.values() for n in ends}
-    ends = np.concatenate([merged.p[fresh], merged.q[fresh]])
-    u = np.concatenate([merged.q[fresh] - merged.p[fresh]] * 2)
+    old = np.array([bm.graph.edges[ends]["fit"] for ends in dissolved.values()], dtype=float).reshape(-1, 2, 2)
+    p, q = np.concatenate([merged.p[fresh], old[:, 0]]), np.concatenate([merged.q[fresh], old[:, 1]])
+    ends, u = np.concatenate([p, q]), np.concatenate([q - p] * 2)
     found = np.stack([ends, u / np.hypot(*u.T)[:, None]], axis=1)
     freed = affected | _linked_points(bm, found, affected, config)
     affected |= freed
