@@ -19,11 +19,12 @@
    ``sigma = sigma_r + sigma_per_metre * range`` the point's range noise std;
    pieces of fewer than ``min_points`` points are dropped; each piece gets its
    total-least-squares line.
-4. Whole clusters: a cluster of ``cluster_min_points`` or more that no piece
-   holds (its split left only pieces too short to keep) becomes one piece when
-   every point's range is within ``join_sigmas * sigma`` of where its ray meets
-   the cluster's line (with ``cluster_min_points`` 2, a cluster of two points is
-   one segment between them).
+4. Whole runs: a run of ``cluster_min_points`` or more points that no piece
+   holds (a cluster whose split left only pieces too short to keep, or what it
+   left beside or between the pieces it kept) becomes one piece when every
+   point's range is within ``join_sigmas * sigma`` of where its ray meets the
+   run's line (with ``cluster_min_points`` 2, a cluster of two points is one
+   segment between them).
    Merge: two neighbouring pieces of a cluster whose union still fits one line
    (every point within ``split_threshold + split_sigmas * sigma_r`` of the union's
    fitted line, its range within ``join_sigmas * sigma`` of where its ray meets
@@ -32,6 +33,12 @@
    while their range is within ``join_sigmas * sigma`` of where their ray meets
    its line (the noise is along the ray: a point seen at a grazing angle may lie
    near the line yet far from it in range).
+   End runs: a run of one or two points (up to ``end_points``) that no piece
+   holds, next to a piece of its cluster, becomes a segment of its own: a run
+   of two between its points, a run of one with the piece's nearest point
+   (shared, as a split point is). These are what a split leaves beyond a corner
+   too few to fit, a mixed point at an edge, the start of a surface at a
+   grazing angle: a ray the segments would otherwise not explain.
 5. Ends: each line is cut by the rays of its piece's first and last points, so
    the segment spans, seen from the laser, exactly the beams it was fitted to.
 
@@ -99,6 +106,13 @@ class LaserParams(BaseModel):
         le=10,
         description="a point no piece holds joins a neighbouring piece's line (a cluster without a piece is fitted "
         "whole) when its range is within this many range noise stds of where its ray meets the line",
+    )
+    end_points: int = Field(
+        2,
+        ge=0,
+        le=2,
+        description="a run of up to this many points that no piece holds, next to a piece of its cluster, becomes "
+        "a segment of its own (0: none)",
     )
 
 
@@ -195,8 +209,9 @@ def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) ->
     beam_of_row[order] = beams
     tolerance = params.split_threshold + params.split_sigmas * params.sigma_r
     limit = params.join_sigmas * sigma
-    pieces = _whole_clusters(points, pieces, limit, params.cluster_min_points)
+    pieces = _whole_runs(points, pieces, limit, params.cluster_min_points)
     pieces = _grow(points, _merge(points, pieces, tolerance, limit), limit)
+    pieces = _end_runs(points, pieces, params.end_points) if params.end_points else pieces
     p, q = _cut_by_end_rays(points, pieces)
     n = len(pieces)
     segments = LslSegments(
@@ -242,19 +257,27 @@ def _fits_one_line(points: NDArray[np.float64], tolerance: float, limit: NDArray
     return bool(distance.max() <= tolerance and (_range_misfit(points, centre, u) <= limit).all())
 
 
-def _whole_clusters(
+def _free_runs(
+    points: NDArray[np.float64], pieces: NDArray[np.intp]
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.bool_]]:
+    """First and last row of each run of points that no piece holds (a run ends at a NaN row or a held point), and
+    whether each row is held (one entry more, False: ``held[-1]`` and ``held[len(points)]`` stand for no row)."""
+    held = np.zeros(len(points) + 1, dtype=bool)
+    held[piece_members(pieces)[0]] = True
+    edges = np.diff(np.r_[0, (~np.isnan(points[:, 0]) & ~held[:-1]).astype(np.int8), 0])
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1, held
+
+
+def _whole_runs(
     points: NDArray[np.float64], pieces: NDArray[np.intp], limit: NDArray[np.float64], min_points: int
 ) -> NDArray[np.intp]:
-    """The pieces, and each cluster (run between NaN rows) of ``min_points`` or more that no piece holds as one
-    more piece when every point's range is within ``limit`` of its line (along its ray)."""
-    valid = ~np.isnan(points[:, 0])
-    cluster = np.cumsum(~valid)  # the same number along a cluster's rows
-    first = np.flatnonzero(valid & np.r_[True, ~valid[:-1]])
-    last = np.flatnonzero(valid & np.r_[~valid[1:], True])
-    bare = (last - first + 1 >= min_points) & ~np.isin(cluster[first], cluster[pieces[:, 0]])
-    whole = np.column_stack([first[bare], last[bare]])
+    """The pieces, and each run of ``min_points`` or more points that no piece holds (a cluster without a piece,
+    or what a split left of one) as one more piece when every point's range is within ``limit`` of the run's line
+    (along its ray)."""
+    first, last, _ = _free_runs(points, pieces)
+    whole = np.column_stack([first, last])[last - first + 1 >= min_points]
     if len(whole):
-        p, q = fit_pieces(points, whole)  # a point of each cluster's line and another
+        p, q = fit_pieces(points, whole)  # a point of each run's line and another
         members, owner, starts = piece_members(whole)
         with np.errstate(invalid="ignore"):
             u = (q - p) / np.hypot(*(q - p).T)[:, None]
@@ -325,3 +348,15 @@ def _cut_by_end_rays(
             t = (centre[0] * u[1] - centre[1] * u[0]) / cross if abs(cross) > 1e-3 * np.hypot(*end) else np.nan
             out[k] = end * t if np.isfinite(t) and t > 0 else centre + ((end - centre) @ u) * u
     return p, q
+
+
+def _end_runs(points: NDArray[np.float64], pieces: NDArray[np.intp], longest: int) -> NDArray[np.intp]:
+    """The pieces, and each run of at most ``longest`` (1 or 2) points that no piece holds, next to a piece in its
+    cluster, as one more piece: a run of two on its own, a run of one with the piece's nearest point (shared, as a
+    split point is)."""
+    first, last, held = _free_runs(points, pieces)
+    left, right = held[first - 1], held[last + 1]
+    single = first == last
+    runs = np.column_stack([np.where(single & left, first - 1, first), np.where(single & ~left, last + 1, last)])
+    both = np.concatenate([pieces, runs[(last - first < longest) & (left | right)]])
+    return both[np.lexsort(both.T[::-1])]

@@ -71,13 +71,53 @@ def wall_scan() -> LaserScan:
 @pytest.mark.parametrize(("extra", "joins"), [(0.05, True), (0.06, True), (0.07, False), (0.12, False)])
 def test_a_cluster_end_joins_the_wall_while_its_range_is_within_the_noise(extra: float, joins: bool) -> None:
     # the last point, farther by `extra` along its ray, splits off the wall as a piece too short to keep;
-    # its noise std at 2.13 m is 0.01 + 0.005 * 2.13 = 2.06 cm, so 3 stds reach 6.2 cm
+    # its noise std at 2.13 m is 0.01 + 0.005 * 2.13 = 2.06 cm, so 3 stds reach 6.2 cm; a point that does not
+    # join is a segment of its own with the wall's last point (end_points), else left out
     scan = wall_scan()
     scan.ranges[-1] += extra
+    alone = LaserParams(end_points=0)
+    assert laser_segments(scan, alone).pieces.tolist() == [[0, 40 if joins else 39]]
+    assert scan_fit(scan, *_ends(laser_segments(scan, alone))).hit[-1] == joins
+    assert laser_segments(scan, LaserParams(join_sigmas=0, end_points=0)).pieces.tolist() == [[0, 39]]
     segs = laser_segments(scan, LaserParams())
-    assert segs.pieces.tolist() == [[0, 40 if joins else 39]]
-    assert scan_fit(scan, segs.segments.p, segs.segments.q).hit[-1] == joins
-    assert laser_segments(scan, LaserParams(join_sigmas=0)).pieces.tolist() == [[0, 39]]
+    assert segs.pieces.tolist() == ([[0, 40]] if joins else [[0, 39], [39, 40]])
+    assert scan_fit(scan, *_ends(segs)).hit[-1]
+
+
+@pytest.mark.parametrize(
+    ("extra", "pieces"),
+    [([0.12], [[0, 39], [39, 40]]), ([0.3, 0.1], [[0, 38], [39, 40]])],
+)
+def test_a_run_of_one_or_two_points_next_to_a_piece_is_a_segment_of_its_own(
+    extra: list[float], pieces: list[list[int]]
+) -> None:
+    # the last points, farther than the noise allows, are left by the split: one of them makes a segment with
+    # the wall's last point (shared, as a split point is), two make one of their own
+    scan = wall_scan()
+    scan.ranges[-len(extra) :] += extra
+    segs = laser_segments(scan, LaserParams())
+    assert segs.pieces.tolist() == pieces
+    np.testing.assert_allclose(segs.segments.p[1], scan.points[pieces[1][0]], atol=1e-12)
+    np.testing.assert_allclose(segs.segments.q[1], scan.points[40], atol=1e-12)
+    assert laser_segments(scan, LaserParams(end_points=len(extra) - 1)).pieces.tolist() == pieces[:1]
+
+
+def test_a_point_off_the_wall_between_two_pieces_makes_a_segment_with_the_piece_before_it() -> None:
+    scan = wall_scan()
+    scan.ranges[20] += 0.12
+    assert laser_segments(scan, LaserParams()).pieces.tolist() == [[0, 19], [19, 20], [21, 40]]
+    assert laser_segments(scan, LaserParams(end_points=0)).pieces.tolist() == [[0, 19], [21, 40]]
+
+
+@pytest.mark.parametrize(("bulge", "pieces"), [(0.04, [[0, 37], [38, 40]]), (0.10, [[0, 37]])])
+def test_what_a_split_leaves_of_a_cluster_is_one_segment_where_one_line_fits_it_within_the_noise(
+    bulge: float, pieces: list[list[int]]
+) -> None:
+    # the last three points 2.3 m away along their rays, the middle one nearer by `bulge`: the split leaves them
+    # no piece; their line is off by 2/3 and 1/3 of the bulge, within 3 noise stds (6.6 cm) for 4 cm, not 10
+    scan = wall_scan()
+    scan.ranges[38:41] = [2.3, 2.3 - bulge, 2.3]
+    assert laser_segments(scan, LaserParams()).pieces.tolist() == pieces
 
 
 @pytest.mark.parametrize(("bulge", "pieces"), [(0.03, [[0, 9], [10, 12], [13, 40]]), (0.10, [[0, 9], [13, 40]])])
@@ -110,6 +150,10 @@ def test_a_cluster_of_two_points_is_one_segment_between_them() -> None:
     np.testing.assert_allclose(segs.segments.p[1], scan.points[10], atol=1e-12)
     np.testing.assert_allclose(segs.segments.q[1], scan.points[11], atol=1e-12)
     assert laser_segments(scan, LaserParams(cluster_min_points=3)).pieces.tolist() == [[0, 9], [12, 40]]
+
+
+def _ends(segs):
+    return segs.segments.p, segs.segments.q
 
 
 def test_no_return_scan_gives_no_segments() -> None:

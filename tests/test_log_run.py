@@ -151,7 +151,7 @@ def test_a_yaml_sensor_reads_its_readings_from_a_log_s_directory(tmp_path, capsy
     for k, record in zip(range(3), open_log(INTEL), strict=False):
         lsl = observation_from_log(record, cfg, k).lsl
         points = ((lsl.p + lsl.q) / 2)[::2]  # the radar reports every other segment's middle
-        detected += len(points)
+        detected += int((np.hypot(*(points - record.robot_pose[:2]).T) <= 4.0).sum())  # within its max_range
         np.savez(readings / f"scan-{record.index}.npz", **{"radar/pose": record.robot_pose, "radar/points": points})
     run = run_log(INTEL, cfg, limit=3, readings=readings)
     feature = run.map.segments.features["radar_detection"]
