@@ -1,38 +1,39 @@
 """Merging of collinear line segments into fewer, longer lines (paper, section III).
 
 The LSL sees a wall as a series of short pieces (small camera field of view,
-overlapping snapshots). Two lines are *related* when
+overlapping snapshots). Two lines are *related* when their directions differ by
+at most ``angle_deg`` (undirected lines), both end points of the shorter lie
+within ``distance`` of the longer one's infinite line, and the gap between them
+along the longer one's direction is at most ``gap`` (overlapping: gap 0).
 
-- their directions differ by at most ``angle_deg`` (undirected lines),
-- both end points of the shorter lie within ``distance`` of the longer one's
-  infinite line, and
-- the gap between them along the longer one's direction is at most ``gap``
-  (overlapping lines have gap 0).
+A member's *offset* from a line is the root mean square distance of its points
+(uniformly dense, as in the refit below): ``sqrt((e1**2 + e1 e2 + e2**2) / 3)``
+for signed end distances ``e1``, ``e2`` (a long member a fraction of a degree
+off stays within ``distance`` where its ends part by more). Its *turn
+allowance* is ``angle_deg``, or ``asin(distance / length)`` when larger (below
+29 cm at the defaults): a short piece's direction is its least certain part (a
+10 cm piece with 1 cm noise gives it to about 10 degrees).
 
 Procedure, repeated until a round merges nothing:
 
-1. Candidate pairs come from a spatial index (``shapely.STRtree``, segments
-   whose bounding boxes come within ``hypot(gap, distance)`` of each other, a
-   bound every related pair meets); the relation is then tested on the
-   candidates with numpy.
-2. The connected components of the relation are the proposed groups. Each
-   group is refitted (below) from its *input* segments, and accepted only if
-   every input member stays within the tolerances of the refitted line: both
-   its end points within ``distance``, and its direction within ``angle_deg``
-   or, for a member shorter than ``distance / sin(angle_deg)`` (29 cm at the
-   defaults), within ``asin(distance / length)``: the turn its own end-point
-   tolerance allows (a short piece's direction is the least certain thing
-   about it; the points of a 10 cm piece with 1 cm noise give its direction
-   to about 10 degrees). This keeps transitive chains (a gently curving wall)
-   from producing a line that no longer fits its pieces.
-3. A rejected group is rebuilt agglomeratively (Kruskal): its related pairs in
-   increasing order of cost (the larger distance of the shorter line's ends
-   from the longer line, plus the gap), two sets joined when their union
-   passes the same member check.
+1. Candidate pairs: related pairs, but the shorter line's direction within its
+   turn allowance (at most :data:`TURN_CAP` times ``angle_deg``) of the longer
+   one's. A spatial index (``shapely.STRtree``: boxes within ``hypot(gap,
+   distance)``, a bound every candidate pair meets) gives a superset, tested
+   with numpy.
+2. The connected components of the candidate pairs are the proposed groups,
+   refitted (below) from their *input* segments; a group is accepted only if
+   every member's offset from the refitted line is within ``distance`` and its
+   direction within its turn allowance (a gently curving wall's chain of
+   pairs does not make a line that no longer fits its pieces).
+3. A rejected group is rebuilt agglomeratively (Kruskal): its candidate pairs
+   by increasing cost (the larger distance of the shorter line's ends from the
+   longer line, plus the gap), two sets joined when their union passes the
+   same member check.
 
-A merged line can merge again in the next round, so the result is a fixed
-point: no two output lines are related and mergeable. Every round removes at
-least one line or ends the loop.
+A merged line can merge again in the next round: the result is a fixed point
+(no two output lines are candidates and mergeable); every round removes a line
+or ends the loop.
 
 The refit is total least squares through the members taken as continuous,
 uniformly dense point sets (the limit of sampling points evenly along each
@@ -62,6 +63,10 @@ __all__ = ["Merged", "check_segments", "merge_segments", "related_pairs"]
 # Slack on every tolerance test, so that a value exactly at the tolerance
 # (5 cm, 10 deg) passes despite rounding.
 _EPS = 1e-9
+
+TURN_CAP = 1.5
+"""A candidate pair's shorter line turns at most this many times ``angle_deg``: uncapped, pieces of a few
+centimetres across a corner or a pillar's facet joined the line they cross (docs/METHOD.md)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,7 +118,8 @@ def check_segments(p: ArrayLike, q: ArrayLike) -> tuple[NDArray[np.float64], NDA
 def merge_segments(
     p: ArrayLike, q: ArrayLike, params: MergeParams | None = None, weights: ArrayLike | None = None
 ) -> Merged:
-    """Merge collinear segments until nothing merges (see the module docstring).
+    """Merge collinear segments until nothing merges (see the module docstring): the lines, their member groups
+    and the line of each input.
 
     Parameters
     ----------
@@ -122,11 +128,6 @@ def merge_segments(
     weights : (N,) how many observations each segment stands for (default 1 each):
         in the refit a segment weighs its length times its weight (a line's
         consolidated support, seen from many poses, weighs as they all would).
-
-    Returns
-    -------
-    Merged
-        The lines, their member groups and the line of each input.
 
     Examples
     --------
@@ -144,7 +145,7 @@ def merge_segments(
     labels = np.arange(len(p))  # current line of each input segment
     lp, lq = p, q
     while len(p):
-        a, b, cost = related_pairs(lp, lq, params)
+        a, b, cost = related_pairs(lp, lq, params, mergeable=True)
         if a.size == 0:
             break
         new = _group_lines(p, q, w, labels, len(lp), a, b, cost, params)
@@ -174,8 +175,11 @@ def related_pairs(
     q: NDArray[np.float64],
     params: MergeParams,
     others: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    *,
+    mergeable: bool = False,
 ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
-    """Pairs of related lines (see the module doc), and the cost of merging each pair.
+    """Pairs of related lines (see the module doc), or with ``mergeable`` merging's candidate pairs, and the cost
+    of merging each pair.
 
     The pairs (a, b), a < b, among the lines p-q; or, given ``others`` (their
     ends op, oq), the pairs of a line p[a]-q[a] and a line op[b]-oq[b].
@@ -194,7 +198,7 @@ def related_pairs(
     if others is None:
         keep = a < b
         a, b = a[keep], b[keep]
-    return _relation(p, q, op, oq, a, b, params)
+    return _relation(p, q, op, oq, a, b, params, mergeable)
 
 
 def _relation(
@@ -205,8 +209,10 @@ def _relation(
     a: NDArray[np.intp],
     b: NDArray[np.intp],
     params: MergeParams,
+    mergeable: bool,
 ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
-    """The candidate pairs (p[a]-q[a], op[b]-oq[b]) that are related, and their costs."""
+    """The candidate pairs (p[a]-q[a], op[b]-oq[b]) that are related (or, ``mergeable``, merging's candidates), and
+    their costs."""
     ends = np.stack([p[a], q[a], op[b], oq[b]])  # (4, pairs, 2): each pair's two lines, ends p, q
     d = ends[[1, 3]] - ends[[0, 2]]
     length = np.hypot(d[..., 0], d[..., 1])
@@ -215,15 +221,26 @@ def _relation(
     pick = np.arange(a.size)
     ul, pl, ll, us = u[longer, pick], ends[2 * longer, pick], length[longer, pick], u[1 - longer, pick]
     rel_p, rel_q = ends[2 - 2 * longer, pick] - pl, ends[3 - 2 * longer, pick] - pl
-    off = np.maximum(np.abs(_cross(ul, rel_p)), np.abs(_cross(ul, rel_q)))
+    e_p, e_q = _cross(ul, rel_p), _cross(ul, rel_q)
+    off = np.maximum(np.abs(e_p), np.abs(e_q))
+    turn = float(params.angle_deg)
+    if mergeable:  # the shorter line's turn allowance (module doc), capped
+        allowance = np.degrees(np.arcsin(np.minimum(params.distance / length[1 - longer, pick], 1.0)))
+        turn = np.clip(allowance, params.angle_deg, TURN_CAP * params.angle_deg)
     tp, tq = _dot(ul, rel_p), _dot(ul, rel_q)  # the shorter's ends along the longer, which spans [0, length]
     gap = np.maximum.reduce([np.minimum(tp, tq) - ll, -np.maximum(tp, tq), np.zeros_like(tp)])
     ok = (
-        (np.abs(_dot(ul, us)) >= np.cos(np.radians(params.angle_deg)) - _EPS)
+        (np.abs(_dot(ul, us)) >= np.cos(np.radians(turn)) - _EPS)
         & (off <= params.distance + _EPS)
         & (gap <= params.gap + _EPS)
     )
     return a[ok], b[ok], (off + gap)[ok]
+
+
+def _offset(e1: NDArray[np.float64], e2: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Root mean square distance from a line of segments' points (uniformly dense) whose ends are ``e1`` and
+    ``e2`` off it (signed)."""
+    return np.sqrt((e1**2 + e1 * e2 + e2**2) / 3)
 
 
 def _group_lines(
@@ -237,7 +254,7 @@ def _group_lines(
     cost: NDArray[np.float64],
     params: MergeParams,
 ) -> NDArray[np.intp]:
-    """New line of each of the m current lines: checked components of the relation."""
+    """New line of each of the m current lines: checked components of the candidate pairs."""
     comp = component_labels(m, a, b)
     group = comp[labels]  # proposed group of each input
     _, _, fits = _fit(p, q, w, group, comp.max() + 1, params)
@@ -272,7 +289,7 @@ def _kruskal(
     """Sets of current lines joined cheapest pair first, each union passing the member check.
 
     ``idx`` are the input segments of one group, sorted by ``line``, their current
-    lines; ``a``, ``b`` the related pairs of lines. A set carries the moments of
+    lines; ``a``, ``b`` the candidate pairs of lines. A set carries the moments of
     its inputs, so a union's line costs O(1); the check is O(size).
     """
     nodes, owner = np.unique(line, return_inverse=True)
@@ -322,12 +339,12 @@ def _fits_one_line(moments: list[float], rows: list[list[float]], cos_tol: float
     cx, cy = sx / w, sy / w
     phi = 0.5 * math.atan2(2 * (sxy / w - cx * cy), (sxx / w - cx * cx) - (syy / w - cy * cy))
     ux, uy = math.cos(phi), math.sin(phi)
-    return all(
-        abs((qx - px) * ux + (qy - py) * uy) >= min(cos_tol * length, math.sqrt(max(length**2 - distance**2, 0.0)))
-        and abs(uy * (px - cx) - ux * (py - cy)) <= distance
-        and abs(uy * (qx - cx) - ux * (qy - cy)) <= distance
-        for px, py, qx, qy, length in rows
-    )
+    for px, py, qx, qy, length in rows:
+        e1, e2 = uy * (px - cx) - ux * (py - cy), uy * (qx - cx) - ux * (qy - cy)  # signed end distances
+        along = min(cos_tol * length, math.sqrt(max(length**2 - distance**2, 0)))  # the turn allowance
+        if abs((qx - px) * ux + (qy - py) * uy) < along or e1 * e1 + e1 * e2 + e2 * e2 > 3 * distance**2:
+            return False
+    return True
 
 
 def _fit(
@@ -358,9 +375,9 @@ def _fit(
     phi = 0.5 * np.arctan2(2 * sxy, sxx - syy)
     u = np.stack([np.cos(phi), np.sin(phi)], axis=1)
     ug, cg = u[g], c[g]
-    off = np.maximum(np.abs(_cross(ug, p - cg)), np.abs(_cross(ug, q - cg)))
+    off = _offset(_cross(ug, p - cg), _cross(ug, q - cg))
     cos_tol = np.cos(np.radians(params.angle_deg)) - _EPS
-    along = np.minimum(cos_tol * length, np.sqrt(np.maximum(length**2 - params.distance**2, 0.0)))  # module doc
+    along = np.minimum(cos_tol * length, np.sqrt(np.maximum(length**2 - params.distance**2, 0.0)))  # turn allowance
     ok = (np.abs(_dot(ug, d)) >= along) & (off <= params.distance + _EPS)
     return c, u, np.bincount(g, ~ok, minlength=k) == 0
 

@@ -23,17 +23,20 @@ def _cross(u, v):
 
 
 def _within_tolerance(p, q, m, params=DEFAULT_MERGE):
-    """Every input lies within the merge tolerances of its merged line."""
+    """Every input lies within the merge tolerances of its merged line: the root mean square distance of its points
+    (evenly spread along it) and its direction."""
     u = m.q - m.p
     u /= np.linalg.norm(u, axis=1)[:, None]
     ul, pl = u[m.line_of], m.p[m.line_of]
     d = q - p
     d /= np.linalg.norm(d, axis=1)[:, None]
-    off = np.maximum(np.abs(_cross(ul, p - pl)), np.abs(_cross(ul, q - pl)))
+    t = (np.arange(1000) + 0.5) / 1000
+    along = p[:, None] + t[None, :, None] * (q - p)[:, None]  # (N, 1000, 2) points evenly spread on each input
+    off = np.sqrt(np.mean(((along - pl[:, None]) @ np.array([[0, 1], [-1, 0]]) * ul[:, None]).sum(-1) ** 2, axis=1))
     angle = np.degrees(np.arccos(np.clip(np.abs(np.sum(ul * d, axis=1)), 0, 1)))
     length = np.hypot(*(q - p).T)
     allowed = np.maximum(params.angle_deg, np.degrees(np.arcsin(np.minimum(params.distance / length, 1))))
-    return bool((off <= params.distance + 1e-9).all() and (angle <= allowed + 1e-6).all())
+    return bool((off <= params.distance + 1e-6).all() and (angle <= allowed + 1e-6).all())
 
 
 def test_two_collinear_overlapping_pieces_merge_into_their_span():
@@ -51,15 +54,46 @@ def test_gap_along_the_line(gap, merged):
 
 @pytest.mark.parametrize(("angle", "merged"), [(9.0, True), (10.0, True), (11.0, False)])
 def test_direction_difference(angle, merged):
-    # 20 cm pieces sharing an end: the turned piece's far end stays within 5 cm of the line.
-    p = [[0, 0], [0.2, 0]]
-    q = [[0.2, 0], _polar([0.2, 0], angle, 0.2)]
+    # 28 cm pieces sharing an end: the turned piece's far end stays within 5 cm of the line (4.9 cm at 10 deg)
+    p = [[0, 0], [0.28, 0]]
+    q = [[0.28, 0], _polar([0.28, 0], angle, 0.28)]
     assert (len(merge_segments(p, q).p) == 1) is merged
 
 
+@pytest.mark.parametrize(("angle", "merged"), [(14.0, True), (14.6, False)])
+def test_a_short_piece_turns_as_far_as_its_ends_allow(angle, merged):
+    # 20 cm pieces sharing an end: a direction within asin(5 cm / 20 cm) = 14.48 deg of the other's still
+    # holds both ends within 5 cm of one line (capped at 1.5 * 10 deg)
+    p = [[0, 0], [0.2, 0]]
+    q = [[0.2, 0], _polar([0.2, 0], angle, 0.2)]
+    assert (len(merge_segments(p, q).p) == 1) is merged
+    assert len(related_pairs(np.array(p, dtype=float), np.array(q, dtype=float), DEFAULT_MERGE)[0]) == 0
+
+
+def test_a_tiny_piece_turns_no_more_than_the_cap():
+    # a 5 cm piece at 20 deg to a wall, its ends within 2 cm of the wall's line: a piece of another surface
+    p = [[0.0, 0.0], _polar([1.0, -0.01], 20, 0.0)]
+    q = [[1.0, 0.0], _polar([1.0, -0.01], 20, 0.05)]
+    assert len(merge_segments(p, q).p) == 2
+
+
+def test_a_member_whose_ends_part_by_more_than_the_distance_stays_while_its_points_fit():
+    # a 6 m wall and two 1 m pieces of it seen from 30 poses each, 5 cm to either side at its two ends (a
+    # pose's heading): the joint line leaves the wall's ends 6 cm off it, its points 3.5 cm in the mean square
+    p = np.array([[0.0, 0.0], [0.0, 0.05], [5.0, -0.05]])
+    q = np.array([[6.0, 0.0], [1.0, 0.05], [6.0, -0.05]])
+    m = merge_segments(p, q, weights=[1, 30, 30])
+    assert len(m.p) == 1 and _within_tolerance(p, q, m)
+    u = (m.q[0] - m.p[0]) / np.linalg.norm(m.q[0] - m.p[0])
+    ends = np.abs(_cross(np.stack([u, u]), np.stack([p[0], q[0]]) - m.p[0]))
+    assert ends.max() > 0.05  # the rule before (both ends within 5 cm) kept the wall apart
+    assert len(merge_segments(p, q + [[0, 0], [0, 0.02], [0, -0.02]], weights=[1, 30, 30]).p) > 1  # 7 cm: apart
+
+
 def test_offset_of_the_shorter_line():
-    # Parallel lines 10 cm apart stay apart; 4 cm apart they merge.
+    # Parallel lines 10 or 6 cm apart stay apart; 4 cm apart they merge.
     assert len(merge_segments([[0, 0], [0, 0.1]], [[1, 0], [1, 0.1]]).p) == 2
+    assert len(merge_segments([[0, 0], [0, 0.06]], [[1, 0], [1, 0.06]]).p) == 2
     m = merge_segments([[0, 0], [0.2, 0.04]], [[2, 0], [0.6, 0.04]])
     assert len(m.p) == 1
     assert _within_tolerance(np.array([[0, 0], [0.2, 0.04]]), np.array([[2, 0], [0.6, 0.04]]), m)
