@@ -109,25 +109,25 @@ def test_a_point_off_the_wall_between_two_pieces_makes_a_segment_with_the_piece_
     assert laser_segments(scan, LaserParams(end_points=0)).pieces.tolist() == [[0, 19], [21, 40]]
 
 
-@pytest.mark.parametrize(("bulge", "pieces"), [(0.04, [[0, 37], [38, 40]]), (0.10, [[0, 37]])])
-def test_what_a_split_leaves_of_a_cluster_is_one_segment_where_one_line_fits_it_within_the_noise(
-    bulge: float, pieces: list[list[int]]
+@pytest.mark.parametrize(
+    ("first", "at", "bulge", "pieces"),
+    [
+        # the last three points 2.3 m away along their rays: the split leaves them no piece; the line of all
+        # three is off by 2/3 and 1/3 of the bulge, within 3 noise stds (6.6 cm) for 4 cm, not 10
+        (38, 2.3, 0.04, [[0, 37], [38, 40]]),
+        (38, 2.3, 0.10, [[0, 37]]),
+        # three points 1 m ahead of the wall: the split leaves the cluster two 2-point pieces, too short to
+        # keep; within 3 noise stds (4.5 cm) for 3 cm, not 10
+        (10, 1.0, 0.03, [[0, 9], [10, 12], [13, 40]]),
+        (10, 1.0, 0.10, [[0, 9], [13, 40]]),
+    ],
+)
+def test_three_points_no_piece_holds_are_one_segment_where_one_line_fits_them_within_the_noise(
+    first: int, at: float, bulge: float, pieces: list[list[int]]
 ) -> None:
-    # the last three points 2.3 m away along their rays, the middle one nearer by `bulge`: the split leaves them
-    # no piece; their line is off by 2/3 and 1/3 of the bulge, within 3 noise stds (6.6 cm) for 4 cm, not 10
+    # the middle of the three points is nearer by `bulge`
     scan = wall_scan()
-    scan.ranges[38:41] = [2.3, 2.3 - bulge, 2.3]
-    assert laser_segments(scan, LaserParams()).pieces.tolist() == pieces
-
-
-@pytest.mark.parametrize(("bulge", "pieces"), [(0.03, [[0, 9], [10, 12], [13, 40]]), (0.10, [[0, 9], [13, 40]])])
-def test_a_cluster_the_split_leaves_bare_is_one_segment_where_one_line_fits_it_within_the_noise(
-    bulge: float, pieces: list[list[int]]
-) -> None:
-    # three points 1 m ahead of the wall, the middle one nearer by `bulge`: the split leaves two 2-point pieces;
-    # the line of all three is off by 2/3 and 1/3 of the bulge, within 3 noise stds (4.5 cm) for 3 cm, not 10
-    scan = wall_scan()
-    scan.ranges[10:13] = [1.0, 1.0 - bulge, 1.0]
+    scan.ranges[first : first + 3] = [at, at - bulge, at]
     assert laser_segments(scan, LaserParams()).pieces.tolist() == pieces
 
 
