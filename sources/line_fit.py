@@ -51,12 +51,14 @@ class ScanFit:
     error : RMS range difference over the rays that hit (m; NaN if none hit).
     hit : (M,) per returned ray, whether it hit a segment.
     predicted : (M,) range of the hit (m), NaN where none.
+    points : (M, 2) where each returned ray ended (world frame, m).
     """
 
     coverage: float
     error: float
     hit: NDArray[np.bool_]
     predicted: NDArray[np.float64]
+    points: NDArray[np.float64]
 
 
 def scan_fit(scan: LaserScan, p: NDArray[np.float64], q: NDArray[np.float64]) -> ScanFit:
@@ -74,7 +76,7 @@ def scan_fit(scan: LaserScan, p: NDArray[np.float64], q: NDArray[np.float64]) ->
     measured = scan.ranges[returned]
     coverage = float(hit.mean()) if len(hit) else float("nan")
     error = float(np.sqrt(np.mean((measured[hit] - predicted[hit]) ** 2))) if hit.any() else float("nan")
-    return ScanFit(coverage, error, hit, predicted)
+    return ScanFit(coverage, error, hit, predicted, scan.pose[:2] + measured[:, None] * d)
 
 
 def log_fit(fits: Iterable[ScanFit]) -> tuple[float, float]:

@@ -116,7 +116,36 @@ def test_evmap_log_writes_the_run_artefacts(tmp_path, capsys):
     assert len(segments) == report["lsl_segments"]
     names = {p.name for p in out.iterdir()}
     assert {"report.json", "segments.json", "map.json", "map.pgm", "map.yaml", "fig7_final_map.svg"} <= names
+    assert "fig9_line_fit.svg" in names
     assert not any("pose" in n for n in names)
+
+
+def test_the_line_fit_figure_shows_every_returned_ray_and_the_report_s_numbers(intel):
+    from evmap.maps.app.figures import line_fit_figure, lsl_lines_figure
+
+    fits = intel.log.fits
+    assert len(fits) == intel.log.scans
+    returned = sum(int((~np.isnan(obs.rays[:, 1])).sum()) for obs in intel.observations)
+    explained = sum(int(f.hit.sum()) for f in fits)
+    assert sum(len(f.points) for f in fits) == returned > explained > 0
+    for obs, fit in zip(intel.observations, fits, strict=True):  # each ray's end where the laser measured it
+        ranges = obs.rays[:, 1][~np.isnan(obs.rays[:, 1])]
+        np.testing.assert_allclose(np.hypot(*(fit.points - obs.pose[:2]).T), ranges, atol=1e-9)
+    ax = line_fit_figure(intel).axes[0]
+    text = ax.get_title(loc="left").replace("\n", " ")
+    assert f"{returned} returned rays, {explained} explained" in text
+    assert f"coverage {report(intel)['line_fit']['coverage_mean']:.3f}" in text
+    assert f"error {100 * report(intel)['line_fit']['rms_error_median']:.2f} cm" in text
+    drawn = {c.get_gid(): len(c.get_offsets()) for c in ax.collections if c.get_gid() and "rays" in c.get_gid()}
+    assert drawn == {"rays-explained": explained, "rays-missed": returned - explained}
+    assert "laser segments" in lsl_lines_figure(intel).axes[0].get_title(loc="left")  # a log's contour: its laser
+
+
+def test_only_a_log_has_a_line_fit_figure():
+    from evmap.maps.app.figures import line_fit_figure
+
+    with pytest.raises(ValueError, match="robot log"):
+        line_fit_figure(run_scenario(load_scenario(configs.path("scenarios/lab.yaml")), load_config()))
 
 
 def test_a_log_whose_scans_give_no_segment_still_makes_its_artefacts(tmp_path):

@@ -106,6 +106,7 @@ def run_log(
         coverage_mean=_finite(coverage),
         rms_error_median=_finite(error),
         per_scan_median=float(np.median(seconds)),
+        fits=tuple(fits),
     )
     total = float(np.sum(seconds))
     return Run(None, config, observations, outcomes, bm, {"fuse": total, "total": total}, summary)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,6 +24,9 @@ from evmap.maps.segments import SegmentStore
 from evmap.sources.config_model import Config
 from evmap.sources.sim.scenario import Scenario
 from evmap.sources.sim.world import World
+
+if TYPE_CHECKING:
+    from evmap.sources.line_fit import ScanFit
 
 __all__ = ["LogSummary", "Run", "report", "run_scenario", "segment_records"]
 
@@ -41,6 +44,8 @@ class LogSummary:
     coverage_mean, rms_error_median : PLE's line-fit measures of the scans' laser segments
         (:func:`evmap.sources.line_fit.log_fit`); None (``null``) where undefined.
     per_scan_median : median seconds of one scan's computation (extraction and update).
+    fits : each scan's line fit: where its returned rays ended, and which its segments explain
+        (drawn in ``fig9_line_fit``; not in the report).
     """
 
     source: str
@@ -49,6 +54,7 @@ class LogSummary:
     coverage_mean: float | None
     rms_error_median: float | None
     per_scan_median: float
+    fits: tuple[ScanFit, ...]
 
 
 @dataclass(frozen=True, eq=False)

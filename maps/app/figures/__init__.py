@@ -38,6 +38,9 @@ file                           function                     paper      what it s
 ``fig8_sensor_features``       ``sensor_features_figure``   (new)      what each YAML sensor's feature said of every
                                                                        segment (report's ``sensors``); only for a
                                                                        config that declares sensors
+``fig9_line_fit``              :func:`line_fit_figure`      (new)      a robot log's returned laser rays, explained by
+                                                                       a segment of their scan or not, under the final
+                                                                       map (report's ``line_fit``); only for a log
 =============================  ===========================  =========  =================================================
 
 :func:`write_figures` writes them as ``png`` (150 dpi), ``svg`` or ``pdf``
@@ -58,6 +61,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from evmap.maps.app.figures.catalogue import FIGURE_FILES
     from evmap.maps.app.figures.files import FORMATS, write_figures
+    from evmap.maps.app.figures.line_fit import line_fit_figure
     from evmap.maps.app.figures.line_map import final_map_figure, merged_map_figure
     from evmap.maps.app.figures.lsl import lsl_lines_figure, noise_figure
     from evmap.maps.app.figures.matching import rcd_matching_figure
@@ -68,6 +72,7 @@ __all__ = [
     "FIGURE_FILES",
     "FORMATS",
     "final_map_figure",
+    "line_fit_figure",
     "lsl_lines_figure",
     "merged_map_figure",
     "noise_figure",
@@ -83,6 +88,7 @@ HOMES = {
     "FORMATS": "files",
     "write_figures": "files",
     "final_map_figure": "line_map",
+    "line_fit_figure": "line_fit",
     "merged_map_figure": "line_map",
     "lsl_lines_figure": "lsl",
     "noise_figure": "lsl",

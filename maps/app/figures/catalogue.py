@@ -6,13 +6,14 @@ from collections.abc import Callable
 
 from matplotlib.figure import Figure
 
+from evmap.maps.app.figures.line_fit import line_fit_figure
 from evmap.maps.app.figures.line_map import final_map_figure, merged_map_figure
 from evmap.maps.app.figures.lsl import lsl_lines_figure, noise_figure
 from evmap.maps.app.figures.matching import rcd_matching_figure
 from evmap.maps.app.figures.scan import open_space_figure, sonar_scan_figure
 from evmap.maps.app.figures.sensors import sensor_features_figure
 
-__all__ = ["FIGURE_FILES", "SCAN_FIGURES", "SENSOR_FIGURES"]
+__all__ = ["FIGURE_FILES", "LOG_FIGURES", "SCAN_FIGURES", "SENSOR_FIGURES"]
 
 FIGURE_FILES: dict[str, Callable[..., Figure]] = {
     "fig2_sonar_scan_rcds.png": sonar_scan_figure,
@@ -27,6 +28,9 @@ FIGURE_FILES: dict[str, Callable[..., Figure]] = {
 
 SENSOR_FIGURES: dict[str, Callable[..., Figure]] = {"fig8_sensor_features.png": sensor_features_figure}
 """The figures of the YAML sensors, written after the others for a config that declares sensors."""
+
+LOG_FIGURES: dict[str, Callable[..., Figure]] = {"fig9_line_fit.png": line_fit_figure}
+"""The figures of a run over a robot log, written after the others."""
 
 SCAN_FIGURES = (sonar_scan_figure, open_space_figure, rcd_matching_figure)
 """The figures of one sonar scan: one file per pose. The others show every pose in one file."""

@@ -47,7 +47,8 @@ def write_figures(run: Run, directory: str | Path, fmt: str = "png", *, dpi: int
     The paths written, in the order of ``FIGURE_FILES``: the scan figures (Figs.
     2, 5 and 6c) once per pose (see :func:`figure_name`), the others once. A run
     over a robot log (no world) has no scan figures. A config that declares YAML
-    sensors adds ``SENSOR_FIGURES`` (``fig8_sensor_features``).
+    sensors adds ``SENSOR_FIGURES`` (``fig8_sensor_features``), a run over a log ``LOG_FIGURES``
+    (``fig9_line_fit``).
 
     >>> import tempfile
     >>> from evmap.sources.config import load_config
@@ -59,11 +60,20 @@ def write_figures(run: Run, directory: str | Path, fmt: str = "png", *, dpi: int
     """
     if fmt not in FORMATS:
         raise ValueError(f"figure format must be one of {', '.join(FORMATS)}; got {fmt!r}")
-    from evmap.maps.app.figures.catalogue import FIGURE_FILES, SCAN_FIGURES, SENSOR_FIGURES  # loads matplotlib
+    from evmap.maps.app.figures.catalogue import (  # loads matplotlib
+        FIGURE_FILES,
+        LOG_FIGURES,
+        SCAN_FIGURES,
+        SENSOR_FIGURES,
+    )
 
     directory = Path(directory)
     paths = []
-    catalogue = {**FIGURE_FILES, **(SENSOR_FIGURES if run.config.extra_sensors else {})}
+    catalogue = {
+        **FIGURE_FILES,
+        **(SENSOR_FIGURES if run.config.extra_sensors else {}),
+        **(LOG_FIGURES if run.log is not None else {}),
+    }
     for name, make in catalogue.items():
         if make in SCAN_FIGURES and run.log is not None:
             continue  # a log's scans are thousands: its map figures show them all, no figure per scan

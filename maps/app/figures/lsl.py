@@ -1,4 +1,5 @@
-"""The figures of the LSL segments: Fig. 4 (the segments as seen) and noise elimination (kept, eliminated).
+"""The figures of the contour segments (the LSL's, or a log's laser's): Fig. 4 (the segments as seen) and noise
+elimination (kept, eliminated).
 
 Both show every pose's segments by default, so their numbers are the report's
 (``lsl_segments``, ``noise_segments``, ``noise_eliminated``, ``real_eliminated``,
@@ -15,7 +16,7 @@ from matplotlib.patches import Patch
 from evmap.maps.app.figures import draw
 from evmap.maps.app.figures.captions import pose_span
 from evmap.maps.app.figures.layout import finish, new_figure, title
-from evmap.maps.app.figures.runs import pose_ids, truth_known
+from evmap.maps.app.figures.runs import contour_sensor, pose_ids, truth_known
 from evmap.maps.app.figures.style import BLACK, OPEN, ORANGE, VERMILION
 from evmap.maps.app.run import Run
 
@@ -35,6 +36,7 @@ def lsl_lines_figure(run: Run, pose: int | None = None) -> Figure:
     ids = pose_ids(run, pose)
     store = run.map.segments
     p, q, truth = store.p[ids], store.q[ids], store.truth[ids]
+    sensor = contour_sensor(run)
     fig, (ax,) = new_figure(run, 1)
     lit = draw.sunlight(ax, run)
     draw.walls(ax, run)
@@ -53,9 +55,9 @@ def lsl_lines_figure(run: Run, pose: int | None = None) -> Figure:
         ]
     else:
         draw.segments(ax, p, q, color=BLACK, lw=1.6, gid="lsl-segments")
-        counts = f"{len(ids)} LSL segments (ground truth unknown)"
-        handles.append(Line2D([], [], lw=1.6, color=BLACK, label="LSL segment"))
-    title(ax, f"Fig. 4  LSL line map from {pose_span(run, pose)}", counts)
+        counts = f"{len(ids)} {sensor} segments (ground truth unknown)"
+        handles.append(Line2D([], [], lw=1.6, color=BLACK, label=f"{sensor} segment"))
+    title(ax, f"Fig. 4  {sensor} line map from {pose_span(run, pose)}", counts)
     finish(fig, [*handles, *([Patch(color=ORANGE, alpha=0.15, label="sunlight region")] if lit else [])])
     return fig
 
@@ -100,6 +102,6 @@ def noise_figure(run: Run, pose: int | None = None) -> Figure:
         style = {"lw": 1.0, "alpha": 0.3, "zorder": 2.5} if faint else {"lw": 1.6}  # faint ones beneath
         draw.segments(ax, p[mask], q[mask], color=color, gid=gid, **style)
         handles.append(Line2D([], [], color=color, label=name, **style))
-    title(ax, f"Noise elimination of the LSL segments from {pose_span(run, pose)}", counts)
+    title(ax, f"Noise elimination of the {contour_sensor(run)} segments from {pose_span(run, pose)}", counts)
     finish(fig, handles)
     return fig

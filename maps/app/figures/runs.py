@@ -15,7 +15,7 @@ from evmap.maps.observation import Observation
 from evmap.maps.pipeline import PoseOutcome
 from evmap.sources.sim.world import World
 
-__all__ = ["check_pose", "observation", "outcome", "pose_ids", "poses", "truth_known", "world"]
+__all__ = ["check_pose", "contour_sensor", "observation", "outcome", "pose_ids", "poses", "truth_known", "world"]
 
 TRUTHS = ("real", "noise")
 """The ground-truth labels of simulated segments; any other value (``""``, ``"unknown"``) means unknown."""
@@ -26,6 +26,11 @@ def check_pose(run: Run, pose: int) -> None:
     n = len(run.observations)
     if isinstance(pose, bool) or not isinstance(pose, int | np.integer) or not 0 <= pose < n:
         raise ValueError(f"pose must be an integer index in [0, {n}), the run's poses; got {pose!r}")
+
+
+def contour_sensor(run: Run) -> str:
+    """What gave the run's contour segments, as the figures name it: ``"laser"`` for a robot log, else ``"LSL"``."""
+    return "LSL" if run.log is None else "laser"
 
 
 def observation(run: Run, pose: int) -> Observation:

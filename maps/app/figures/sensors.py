@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from evmap.maps.app.figures import draw
 from evmap.maps.app.figures.layout import finish, new_figure, title
-from evmap.maps.app.figures.runs import truth_known
+from evmap.maps.app.figures.runs import contour_sensor, truth_known
 from evmap.maps.app.figures.style import BLACK, BLUE, DASH, GREEN, ORANGE, PURPLE, VERMILION
 from evmap.maps.app.run import Run
 
@@ -97,5 +97,5 @@ def sensor_features_figure(run: Run) -> Figure:
     legend = [*draw.wall_handles(run), *handles]
     if phantom.any():
         legend.append(Line2D([], [], lw=1.8, ls=DASH, color=BLACK, label="sunlight phantom (dashed)"))
-    finish(fig, legend, "What the declared sensors said of the LSL segments, all poses")
+    finish(fig, legend, f"What the declared sensors said of the {contour_sensor(run)} segments, all poses")
     return fig
