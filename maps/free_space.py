@@ -203,6 +203,7 @@ def free_space(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shapely.
     q = np.array([ln.q for ln in believed], dtype=float).reshape(-1, 2)
     op, oq = _object_faces(bm, {s.pose_index: s.origin for s in poses}, params)
     p, q = np.concatenate([p, op]), np.concatenate([q, oq])
+    tree = shapely.STRtree(shapely.linestrings(np.stack([p, q], axis=1)))
     pieces = []
     for s in poses:
         seen = [ray_fan(s, params)]
@@ -214,9 +215,12 @@ def free_space(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shapely.
             seen.append(sonar if bound is None else shapely.intersection(sonar, bound))
         free = shapely.union_all(seen)
         if len(p) and not free.is_empty:
-            xmin, ymin, xmax, ymax = free.bounds
+            (xmin, ymin), (xmax, ymax) = np.minimum(free.bounds[:2], s.origin), np.maximum(free.bounds[2:], s.origin)
+            # a line's shadow meets the free space only if the line meets a box holding it and the origin
+            # (the segment from the origin to a shaded free point lies in the box and crosses the line)
+            near = tree.query(shapely.box(xmin, ymin, xmax, ymax), predicate="intersects")
             reach = float(np.hypot(xmax - xmin, ymax - ymin)) + 1.0
-            free = shapely.difference(free, shadows(s.origin, p, q, reach))
+            free = shapely.difference(free, shadows(s.origin, p[near], q[near], reach))
         pieces.append(free)
     union = shapely.union_all(pieces)
     polygons = [g for g in shapely.get_parts(union) if isinstance(g, shapely.Polygon) and not g.is_empty]
