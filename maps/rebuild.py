@@ -237,9 +237,11 @@ def _merged_evidence(bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, conf
     features from their longest member), and how many poses saw each."""
     store = bm.segments
     length = np.hypot(*(store.q[pool] - store.p[pool]).T)
-    longest = np.array([pool[group][np.argmax(length[group])] for group in merged.groups], dtype=np.intp)
+    order = np.lexsort((np.arange(len(pool)), -length, merged.line_of))  # by line, the longest member first
+    first = np.flatnonzero(np.diff(merged.line_of[order], prepend=-1))
+    longest = pool[order[first]]
     features = {name: column[longest] for name, column in store.features.items()}
-    seen = np.array([_poses_seen(store, pool[group]) for group in merged.groups], dtype=np.intp)
+    seen = _poses_seen(store, pool, merged.line_of, len(merged.groups))
     features["lsl_other_poses"] = seen - 1
     features |= kept_features(bm, longest)
     ends = np.concatenate([store.p[pool], store.q[pool]])
@@ -351,14 +353,17 @@ def _attach(
     return added
 
 
-def _poses_seen(store: SegmentStore, rows: NDArray[np.intp]) -> int:
-    """How many poses saw the segments ``rows``: the raw ones' distinct poses, and the poses behind each support.
+def _poses_seen(store: SegmentStore, pool: NDArray[np.intp], line_of: NDArray[np.intp], lines: int) -> NDArray[np.intp]:
+    """How many poses saw each of the ``lines`` merged lines (``line_of`` each row of ``pool``): the distinct
+    poses of its raw rows, and the poses behind each of its supports.
 
     A support's poses are counted apart from the raw segments' (after a
     consolidation, the poses that saw a line again are new ones).
     """
-    support = store.role[rows] == "support"
-    return len(np.unique(store.pose[rows[~support]])) + int(store.seen[rows[support]].sum())
+    support = store.role[pool] == "support"
+    raw = np.unique(np.column_stack([line_of[~support], store.pose[pool[~support]]]), axis=0)
+    behind = np.bincount(line_of[support], weights=store.seen[pool[support]], minlength=lines)
+    return np.bincount(raw[:, 0], minlength=lines) + behind.astype(np.intp)
 
 
 def _carried(
