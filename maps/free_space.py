@@ -215,10 +215,11 @@ def free_space(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shapely.
             seen.append(sonar if bound is None else shapely.intersection(sonar, bound))
         free = shapely.union_all(seen)
         if len(p) and not free.is_empty:
-            (xmin, ymin), (xmax, ymax) = np.minimum(free.bounds[:2], s.origin), np.maximum(free.bounds[2:], s.origin)
-            # a line's shadow meets the free space only if the line meets a box holding it and the origin
-            # (the segment from the origin to a shaded free point lies in the box and crosses the line)
-            near = tree.query(shapely.box(xmin, ymin, xmax, ymax), predicate="intersects")
+            # the pose's free space is star-shaped from its origin (fans of rays and sonar sectors from there):
+            # the segment from the origin to a free point in a line's shadow is free and crosses the line, so
+            # only the lines that meet the free space shade it
+            near = tree.query(free, predicate="intersects")
+            xmin, ymin, xmax, ymax = free.bounds
             reach = float(np.hypot(xmax - xmin, ymax - ymin)) + 1.0
             free = shapely.difference(free, shadows(s.origin, p[near], q[near], reach))
         pieces.append(free)

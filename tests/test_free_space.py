@@ -81,3 +81,28 @@ def test_a_believed_unidentified_object_ends_the_free_space_behind_it():
     pane = MassFunction(bm.frame, {"real": 0.6, "real|noise": 0.4})
     bm.add_point("pane", s.origin + 0.5 * s.range[ok[k]] * u[k], "unidentified", pane, history=[{"pose": 0}])
     assert not free_space(bm).contains(shapely.Point(behind[k]))
+
+
+class _EveryLine:
+    """A stand-in for shapely's STRtree whose every query finds every geometry."""
+
+    def __init__(self, geometries):
+        self.n = len(geometries)
+
+    def query(self, *_, **__):
+        return np.arange(self.n)
+
+
+@pytest.mark.parametrize("kind", ["patrol", "log"])
+def test_only_the_lines_that_meet_a_pose_s_free_space_shade_it(bm, kind, monkeypatch):
+    if kind == "log":
+        from pathlib import Path
+
+        from evmap.maps.app.log_run import run_log
+
+        excerpt = Path(__file__).parent / "data" / "logs" / "freiburg-079-excerpt.log.gz"
+        bm = run_log(excerpt, load_config(), limit=12).map
+    culled = free_space(bm)
+    monkeypatch.setattr(shapely, "STRtree", _EveryLine)  # every believed line's shadow cut from every pose
+    whole = free_space(bm)
+    assert whole.area > 1 and shapely.symmetric_difference(culled, whole).area <= 1e-12
