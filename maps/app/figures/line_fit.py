@@ -3,7 +3,7 @@
 Each returned laser ray ends in a dot: grey where a segment extracted from its
 own scan explains it (the ray hits the segment, :mod:`evmap.sources.line_fit`),
 vermilion where none does; the final map's believed lines (Bel(real) at least
-0.5) are drawn over them, the others faint. The title's coverage and error are
+0.5) are drawn over them, the others thin and blue, beside the robot's path. The title's coverage and error are
 ``report.json``'s ``line_fit``. Only a run over a log (``evmap log``) has it.
 """
 
@@ -15,7 +15,7 @@ from matplotlib.lines import Line2D
 
 from evmap.maps.app.figures import draw
 from evmap.maps.app.figures.layout import MARGIN, finish, new_figure, title
-from evmap.maps.app.figures.style import BLACK, FAINT, VERMILION
+from evmap.maps.app.figures.style import BLACK, BLUE, FAINT, VERMILION
 from evmap.maps.app.run import Run
 
 __all__ = ["line_fit_figure"]
@@ -44,11 +44,12 @@ def line_fit_figure(run: Run) -> Figure:
         ax.scatter(*points[chosen].T, s=1.0, lw=0, color=color, rasterized=True, zorder=1, gid=gid)
     lines = run.map.lines(0.0)
     for gid, color, lw, chosen in (
-        ("lines", FAINT, 0.6, [ln for ln in lines if ln.belief < BELIEVED]),
+        ("lines", BLUE, 0.6, [ln for ln in lines if ln.belief < BELIEVED]),
         ("believed-lines", BLACK, 1.0, [ln for ln in lines if ln.belief >= BELIEVED]),
     ):
         draw.segments(ax, draw.ends(chosen, "p"), draw.ends(chosen, "q"), color=color, lw=lw, gid=gid, zorder=3)
     draw.robots(ax, run)
+    paths = [line for line in ax.lines if line.get_gid() == "robot-path"]  # a log of many scans: its path
     log = run.log
     believed = sum(ln.belief >= BELIEVED for ln in lines)
     error = "undefined" if log.rms_error_median is None else f"{100 * log.rms_error_median:.2f} cm"
@@ -65,7 +66,8 @@ def line_fit_figure(run: Run) -> Figure:
             Line2D([], [], ls="", marker="o", ms=3, color=FAINT, label="ray explained by its scan's segments"),
             Line2D([], [], ls="", marker="o", ms=3, color=VERMILION, label="ray no segment explains"),
             Line2D([], [], lw=1.0, color=BLACK, label=f"map line, Bel(real) >= {BELIEVED:g}"),
-            Line2D([], [], lw=0.6, color=FAINT, label="map line, less believed"),
+            Line2D([], [], lw=0.6, color=BLUE, label="map line, less believed"),
+            *[Line2D([], [], lw=0.5, color=path.get_color(), label="robot path") for path in paths],
         ],
     )
     return fig
