@@ -11,8 +11,11 @@
    broken apart when their distance exceeds
    ``D_max = r_{n-1} * sin(dphi) / sin(lambda - dphi) + 3 * sigma_r``,
    the gap a surface seen at the grazing angle ``lambda`` would leave, plus noise.
-   Beams without return between them widen ``dphi``, so a gap in the scan breaks
-   where the surfaces do not continue across it.
+   Two or more beams between them that returned nothing break them too: a
+   surface continuing from one point to the other would have returned them
+   (the formula over the widened ``dphi`` allows more, and any gap once ``dphi``
+   reaches ``lambda``: on the Intel log, segments of 8-18 m across rooms); one
+   such beam is a dropout, judged by the formula.
 3. Split (iterative end-point fit) and line fit of each cluster by
    :func:`evmap.sources.polyline.fit_polylines`: a point further than
    ``split_threshold + split_sigmas * sigma`` from its piece's chord splits it,
@@ -160,13 +163,21 @@ class LaserSegments:
         return Rays(self.origin, self.ends, self.returned)
 
 
+DROPOUT = 1
+"""Beams without return between two returned ones that may still lie on one surface (a dark spot)."""
+
+
 def breakpoints(scan: LaserScan, params: LaserParams) -> NDArray[np.intp]:
     """Beam indices of the returned beams that start a new cluster (the first returned beam included).
 
     >>> from evmap.sources.logs.scan import LaserScan
-    >>> scan = LaserScan(0.0, np.zeros(3), np.radians([0.0, 1, 2, 3, 4]), np.array([2, 2, 4, np.nan, 4.0]), 80.0)
-    >>> breakpoints(scan, LaserParams()).tolist()
+    >>> bearings = np.radians([0.0, 1, 2, 3, 4, 5])
+    >>> scan = LaserScan(0.0, np.zeros(3), bearings, np.array([2, 2, 4, np.nan, 4, 4.0]), 80.0)
+    >>> breakpoints(scan, LaserParams()).tolist()  # 2 m -> 4 m breaks; one beam without return is a dropout
     [0, 2]
+    >>> scan = LaserScan(0.0, np.zeros(3), bearings, np.array([2, 2, 4, np.nan, np.nan, 4.0]), 80.0)
+    >>> breakpoints(scan, LaserParams()).tolist()  # two beams without return: the surface did not go on
+    [0, 2, 5]
     """
     beams = np.flatnonzero(~np.isnan(scan.ranges))
     if len(beams) == 0:
@@ -179,7 +190,7 @@ def breakpoints(scan: LaserScan, params: LaserParams) -> NDArray[np.intp]:
     with np.errstate(divide="ignore"):
         room = np.where(dphi < lam, np.sin(lam - dphi), 0.0)
         d_max = np.where(room > 0, r[:-1] * np.sin(dphi) / room, np.inf) + 3 * params.sigma_r
-    return np.concatenate([beams[:1], beams[1:][gap > d_max]])
+    return np.concatenate([beams[:1], beams[1:][(gap > d_max) | (np.diff(beams) > 1 + DROPOUT)]])
 
 
 def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) -> LaserSegments:

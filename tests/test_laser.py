@@ -184,3 +184,17 @@ def test_log_excerpts_are_mostly_covered(name: str) -> None:
         fits.append(scan_fit(record.scan, segs.segments.p, segs.segments.q))
     assert np.mean([f.coverage for f in fits]) > 0.85
     assert np.median([f.error for f in fits]) < 0.025
+
+
+@pytest.mark.parametrize(("silent", "joined"), [(1, True), (2, False), (6, False)])
+def test_beams_that_returned_nothing_break_a_surface_but_one_dropout(silent: int, joined: bool) -> None:
+    # the wall 2 m ahead with `silent` beams from beam 20 on returning nothing; with six (6 deg, lambda's angle)
+    # the breakpoint formula alone allowed any gap, here a jump to 12 m on the last three beams
+    scan = wall_scan()
+    scan.ranges[20 : 20 + silent] = np.nan
+    assert (20 + silent in breakpoints(scan, LaserParams()).tolist()) != joined
+    far = wall_scan()
+    far.ranges[20:26] = np.nan
+    far.ranges[26:] = 12.0
+    pieces = laser_segments(far, LaserParams()).pieces
+    assert ((pieces[:, 0] >= 26) | (pieces[:, 1] <= 19)).all()  # no segment spans the silent beams
