@@ -3,8 +3,9 @@
 Each returned laser ray ends in a dot: grey where a segment extracted from its
 own scan explains it (the ray hits the segment, :mod:`evmap.sources.line_fit`),
 vermilion where none does; the final map's believed lines (Bel(real) at least
-0.5) are drawn over them, the others thin and blue, beside the robot's path. The title's coverage and error are
-``report.json``'s ``line_fit``. Only a run over a log (``evmap log``) has it.
+0.5) are drawn over them in black, the others thin and blue, beside the robot's
+path. The title's coverage and error are ``report.json``'s ``line_fit``. Only a
+run over a log (``evmap log``) has it.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from evmap.maps.app.run import Run
 __all__ = ["line_fit_figure"]
 
 BELIEVED = 0.5
-"""Lines with at least this Bel(real) are drawn in black, the others faint."""
+"""Lines with at least this Bel(real) are drawn in black, the others thin and blue."""
 
 
 def line_fit_figure(run: Run) -> Figure:
