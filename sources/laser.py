@@ -26,8 +26,9 @@
    holds (a cluster whose split left only pieces too short to keep, or what it
    left beside or between the pieces it kept) becomes one piece when every
    point's range is within ``join_sigmas * sigma`` of where its ray meets the
-   run's line (with ``cluster_min_points`` 2, a cluster of two points is one
-   segment between them).
+   run's line (with ``cluster_min_points`` 2, the default, a cluster of two
+   points is one segment between them: a chair leg, a door frame, a far wall
+   at a grazing angle).
    Merge: two neighbouring pieces of a cluster whose union still fits one line
    (every point within ``split_threshold + split_sigmas * sigma_r`` of the union's
    fitted line, its range within ``join_sigmas * sigma`` of where its ray meets
@@ -101,7 +102,7 @@ class LaserParams(BaseModel):
     split_threshold: float = Field(0.01, gt=0, le=1, description="split distance from a piece's chord (m)")
     split_sigmas: float = Field(1.0, ge=0, le=10, description="split distance grows by this many range noise stds")
     cluster_min_points: int = Field(
-        3, ge=2, le=1000, description="fewest points of a cluster that no piece holds to be fitted whole"
+        2, ge=2, le=1000, description="fewest points of a cluster that no piece holds to be fitted whole"
     )
     join_sigmas: float = Field(
         3.0,

@@ -92,14 +92,17 @@ def test_a_run_of_one_or_two_points_next_to_a_piece_is_a_segment_of_its_own(
     extra: list[float], pieces: list[list[int]]
 ) -> None:
     # the last points, farther than the noise allows, are left by the split: one of them makes a segment with
-    # the wall's last point (shared, as a split point is), two make one of their own
+    # the wall's last point (shared, as a split point is), two make one of their own (a whole run of two points
+    # too, by default)
     scan = wall_scan()
     scan.ranges[-len(extra) :] += extra
-    segs = laser_segments(scan, LaserParams())
-    assert segs.pieces.tolist() == pieces
-    np.testing.assert_allclose(segs.segments.p[1], scan.points[pieces[1][0]], atol=1e-12)
-    np.testing.assert_allclose(segs.segments.q[1], scan.points[40], atol=1e-12)
-    assert laser_segments(scan, LaserParams(end_points=len(extra) - 1)).pieces.tolist() == pieces[:1]
+    for params in (LaserParams(), LaserParams(cluster_min_points=3)):
+        segs = laser_segments(scan, params)
+        assert segs.pieces.tolist() == pieces
+        np.testing.assert_allclose(segs.segments.p[1], scan.points[pieces[1][0]], atol=1e-12)
+        np.testing.assert_allclose(segs.segments.q[1], scan.points[40], atol=1e-12)
+    fewer = LaserParams(end_points=len(extra) - 1, cluster_min_points=3)
+    assert laser_segments(scan, fewer).pieces.tolist() == pieces[:1]
 
 
 def test_a_point_off_the_wall_between_two_pieces_makes_a_segment_with_the_piece_before_it() -> None:
