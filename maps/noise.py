@@ -30,7 +30,7 @@ if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
     from evmap.maps.segments import SegmentStore
 
-__all__ = ["COMPUTED", "NoiseEvidence", "judge", "noise_evidence", "other_poses"]
+__all__ = ["COMPUTED", "LATEST_POSES", "NoiseEvidence", "judge", "noise_evidence", "other_poses", "settled"]
 
 COMPUTED = ("relation", "length", "lsl_other_poses", "contour_free", "lsl_persistence", "sonar_forward")
 """The features the pipeline computes for the noise-elimination sources (an observation brings any others)."""
@@ -109,7 +109,7 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
 
     Writes each segment's relation, fused mass, conflict and fate into the map's
     segment store; the open space and the other poses' segments are looked up
-    near the segments only. The features of the sensed readings
+    near the segments only, the :func:`settled` ones left out. The features of the sensed readings
     (:mod:`evmap.maps.sensed`) are computed when a source reads them:
     ``contour_free`` and ``lsl_persistence`` (:mod:`evmap.maps.contour_free_space`)
     and ``sonar_forward`` (:mod:`evmap.maps.sonar_forward`), from the readings of
@@ -126,6 +126,9 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
     lo, hi = ends.min(axis=0), ends.max(axis=0)
     space = bm.open_space_parts_near((*lo, *hi))
     near = _near_each(store, ids, config.merge.distance + config.merge.gap)
+    old = settled(bm, near)
+    store.forget(near[old])  # noise for good: no later lookup finds them
+    near = near[~old]
     seen = other_poses(
         store.p[ids], store.q[ids], store.pose[ids], store.p[near], store.q[near], store.pose[near], config.merge
     )
@@ -156,6 +159,15 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
     store.mass[ids] = ev.fused
     store.conflict[ids] = ev.conflict
     store.eliminated[ids] = ev.eliminated
+
+
+def settled(bm: BeliefMap, rows: NDArray[np.intp]) -> NDArray[np.bool_]:
+    """Which of the map's stored segments ``rows`` are settled: eliminated, and by poses before the map's latest
+    :data:`LATEST_POSES`. Noise for good: never judged again, nor evidence for the segments judged (another
+    pose's segment on one, or one continuing its end, counts only if it is not settled), so that a place passed
+    again and again does not pile up its phantoms in every lookup."""
+    store = bm.segments
+    return store.eliminated[rows] & ~np.isin(store.pose[rows], bm.poses[-LATEST_POSES:])
 
 
 def _ray_features(

@@ -35,7 +35,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from evmap.maps.noise import COMPUTED, LATEST_POSES, judge
+from evmap.maps.noise import COMPUTED, judge, settled
 from evmap.maps.observation import Observation
 from evmap.maps.rebuild import rebuild, refresh_points
 from evmap.maps.reinforcement import reinforce
@@ -163,8 +163,9 @@ def touched_segments(bm: BeliefMap, new: NDArray[np.intp], space: shapely.Geomet
         boxes.append(shapely.bounds(shapely.get_parts(space)))
     grown = np.concatenate(boxes).reshape(-1, 4) + np.array([-margin, -margin, margin, margin])
     found = np.unique(np.concatenate([new, *(store.near(tuple(box)) for box in grown.tolist())]))
-    settled = store.eliminated[found] & ~np.isin(store.pose[found], bm.poses[-LATEST_POSES:])
-    return found[~settled]
+    old = settled(bm, found)
+    store.forget(found[old])  # noise for good: no later lookup finds them
+    return found[~old]
 
 
 def check_observation(bm: BeliefMap, obs: Observation, config: Config) -> None:

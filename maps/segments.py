@@ -201,7 +201,8 @@ class SegmentStore:
         self._index = None
 
     def near(self, bounds: tuple[float, float, float, float]) -> NDArray[np.intp]:
-        """Ids of the segments not absorbed whose bounding boxes meet ``bounds`` = (xmin, ymin, xmax, ymax), sorted.
+        """Ids of the segments not absorbed (nor forgotten, :meth:`forget`) whose bounding boxes meet ``bounds`` =
+        (xmin, ymin, xmax, ymax), sorted.
 
         A spatial index (:class:`~evmap.maps.spatial.SpatialIndex`): it costs what the box holds.
         """
@@ -209,6 +210,15 @@ class SegmentStore:
             live = np.flatnonzero(self.role != "absorbed")
             self._index = SpatialIndex.from_boxes([str(i) for i in live.tolist()], _boxes(self.p[live], self.q[live]))
         return np.array(sorted(map(int, self._index.query(bounds))), dtype=np.intp)
+
+    def forget(self, rows: ArrayLike) -> None:
+        """Leave the rows out of :meth:`near` until the index is made anew (after a :meth:`restore` or a load):
+        for rows no caller looks up again (settled noise), which the callers also leave out of what they find,
+        so that what they find does not depend on when the index was made."""
+        if self._index is not None:
+            for i in np.asarray(rows, dtype=np.intp).tolist():
+                if str(i) in self._index:
+                    self._index.remove(str(i))
 
     def to_json(self) -> dict[str, Any]:
         """The store as JSON-able lists (floats round-trip exactly)."""

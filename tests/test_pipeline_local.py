@@ -12,7 +12,7 @@ from evmap.maps.app.run import run_scenario
 from evmap.maps.belief_map import new_map
 from evmap.maps.corners import find_corners
 from evmap.maps.merging import merge_segments
-from evmap.maps.noise import LATEST_POSES
+from evmap.maps.noise import LATEST_POSES, settled
 from evmap.maps.observation import Observation, observe
 from evmap.maps.pipeline import touched_segments
 from evmap.sources.config import load_config
@@ -117,6 +117,11 @@ def test_segments_eliminated_before_the_latest_poses_are_settled():
     touched = touched_segments(bm, new, bm.open_space_near(bm.extent()), config)
     assert not np.isin(old, touched).any() and np.isin(recent, touched).all()
     assert store.eliminated[old].all()  # still in the store, noise for good
+    assert settled(bm, old).all() and not settled(bm, recent).any()
+    # forgotten as they are found: no later lookup finds them (nor counts them as another pose's segment on one
+    # judged, or one continuing its end)
+    assert not np.isin(old, store.near(bm.extent())).any()
+    assert np.isin(recent, store.near(bm.extent())).all()
 
 
 def laser_only(pose_index, p, q):
