@@ -66,3 +66,4 @@ def all_or_nothing(
         raise
     finally:
         objects.undo.stop()
+        segments.release(store)

@@ -151,14 +151,11 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
         features["sonar_forward"] = sonar_forward(store.p[ids], store.q[ids], free, poses, sonar)
     ev = noise_evidence(store.p[ids], store.q[ids], space, config, features)
     if rays and any(s.all_returns for s in poses) and (ev.eliminated & ~store.eliminated[ids]).any():
-        store.eliminated[ids] = ev.eliminated  # a second look, through what this judgement found noise
+        store.write(ids, eliminated=ev.eliminated)  # a second look, through what this judgement found noise
         features |= _ray_features(store, ids, poses, params)
         ev = noise_evidence(store.p[ids], store.q[ids], space, config, features)
     keep_features(bm, ids, {name: features[name] for name in SENSED_FEATURES if name in features})
-    store.relation[ids] = ev.relation
-    store.mass[ids] = ev.fused
-    store.conflict[ids] = ev.conflict
-    store.eliminated[ids] = ev.eliminated
+    store.write(ids, relation=ev.relation, mass=ev.fused, conflict=ev.conflict, eliminated=ev.eliminated)
 
 
 def settled(bm: BeliefMap, rows: NDArray[np.intp]) -> NDArray[np.bool_]:

@@ -102,7 +102,7 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     histories = {lid: (g.edges[ends]["history"], bm.running_mass(lid)) for lid, ends in dissolved.items()}
     kept, removed = _detach(bm, dissolved, affected)
     lines = kept + _new_lines(bm, pool, merged, fresh, evidence, histories, config)
-    store.line[touched[store.eliminated[touched]]] = ""
+    store.write(touched[store.eliminated[touched]], line="")
     return _attach(bm, lines, removed, viewpoint, config) | set(refitted.values()) | new_evidence
 
 
@@ -271,11 +271,10 @@ def _merged_line(
         "length": float(base.length[k]),
         "mass": mass.to_dict(),
     }
-    store.line[members] = lid
+    store.write(members, line=lid)
     if seen[k] > CONSOLIDATE_POSES and len(members) > 1:
         row = store.consolidate(members, merged.p[k], merged.q[k], lid, int(seen[k]))
-        store.relation[row], store.mass[row], store.conflict[row] = base.relation[k], base.fused[k], base.conflict[k]
-        store.eliminated[row] = False
+        store.write([row], relation=base.relation[k], mass=base.fused[k], conflict=base.conflict[k], eliminated=False)
         members = np.array([row], dtype=np.intp)
     return first, mass, members
 

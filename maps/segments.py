@@ -22,6 +22,7 @@ Raw segments have ``role`` ``""`` and ``seen`` 1."""
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -30,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from evidential import Frame
 from evmap.maps.spatial import SpatialIndex
 
-__all__ = ["COLUMNS", "CONSOLIDATE_POSES", "OPTIONAL_COLUMNS", "SegmentStore"]
+__all__ = ["COLUMNS", "CONSOLIDATE_POSES", "OPTIONAL_COLUMNS", "Checkpoint", "SegmentStore"]
 
 COLUMNS: tuple[str, ...] = ("p", "q", "pose", "truth", "relation", "mass", "conflict", "eliminated", "line")
 """The columns every store has (see :class:`SegmentStore`)."""
@@ -51,7 +52,8 @@ ROLES = ("", "absorbed", "support")
 class SegmentStore:
     """Raw segments, one row each; a segment's id is its row number.
 
-    Columns (views of length N, writable in place):
+    Columns (read-only views of length N; :meth:`write` changes the columns :data:`WRITTEN` of rows already
+    appended, so that a :meth:`checkpoint` can put them back):
 
     - ``p``, ``q``: (N, 2) end points.
     - ``pose``: (N,) index of the pose that saw the segment.
@@ -89,6 +91,7 @@ class SegmentStore:
         }
         self._features: dict[str, NDArray[Any]] = {}
         self._index: SpatialIndex | None = None  # the rows not absorbed; made on first use, then kept
+        self._journal: list[tuple[NDArray[np.intp], dict[str, NDArray[Any]]]] | None = None  # see checkpoint
 
     @classmethod
     def empty(cls, frame: Frame) -> SegmentStore:
@@ -102,12 +105,32 @@ class SegmentStore:
         data = self.__dict__.get("_data")
         if data is None or name not in data:
             raise AttributeError(name)
-        return data[name][: self._n]
+        return _read_only(data[name][: self._n])
 
     @property
     def features(self) -> dict[str, NDArray[Any]]:
-        """The further per-segment features, name -> (N,) array."""
-        return {name: column[: self._n] for name, column in self._features.items()}
+        """The further per-segment features, name -> (N,) array (read-only)."""
+        return {name: _read_only(column[: self._n]) for name, column in self._features.items()}
+
+    def write(self, rows: ArrayLike, **columns: ArrayLike) -> None:
+        """Set the columns :data:`WRITTEN` (``relation=...``, ``line=...``) of the segments ``rows`` (ids).
+
+        >>> store = SegmentStore.empty(Frame(["real", "noise"]))
+        >>> ids = store.append([[0.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [2.0, 0.0]], [0, 0], ["", ""])
+        >>> store.write([1], relation=["inside"], eliminated=True)
+        >>> store.relation.tolist(), store.eliminated.tolist()
+        (['', 'inside'], [False, True])
+        """
+        rows = np.asarray(rows, dtype=np.intp).reshape(-1)
+        unknown = sorted(set(columns) - set(WRITTEN))
+        if unknown:
+            raise ValueError(f"cannot write {unknown}: a segment's {', '.join(unknown)} never change once appended")
+        if len(rows) and not (0 <= rows.min() and rows.max() < self._n):
+            raise IndexError(f"rows {rows.min()}..{rows.max()} are not all among the {self._n} segments")
+        if self._journal is not None:
+            self._journal.append((rows, {k: self._data[k][rows].copy() for k in columns}))
+        for k, values in columns.items():
+            self._data[k][rows] = values
 
     @property
     def length(self) -> NDArray[np.float64]:
@@ -180,25 +203,33 @@ class SegmentStore:
         self._data["line"][row] = line
         self._data["role"][row] = "support"
         self._data["seen"][row] = seen
-        self._data["role"][members] = "absorbed"
+        self.write(members, role="absorbed")
         if self._index is not None:
             for i in members.tolist():
                 self._index.remove(str(i))
         return row
 
-    def checkpoint(self) -> tuple[int, dict[str, NDArray[Any]]]:
-        """What :meth:`restore` needs to put the rows back as they are (the map's all-or-nothing updates):
-        their number and a copy of the columns :data:`WRITTEN` in place; the other columns of a row never
-        change once it is appended."""
-        n = self._n
-        return n, {k: self._data[k][:n].copy() for k in WRITTEN}
+    def checkpoint(self) -> Checkpoint:
+        """What :meth:`restore` needs to put the rows back as they are now (the map's all-or-nothing updates):
+        their number, and from now on what each :meth:`write` overwrites (the other columns of a row never
+        change once it is appended), until :meth:`release`. It costs what the writes touch, not the store's
+        size."""
+        self._journal = []
+        return Checkpoint(self._n, self._journal)
 
-    def restore(self, checkpoint: tuple[int, dict[str, NDArray[Any]]]) -> None:
+    def restore(self, checkpoint: Checkpoint) -> None:
         """Put the rows of a :meth:`checkpoint` back, as they were then (rows appended since are dropped)."""
-        self._n, written = checkpoint
-        for k, column in written.items():
-            self._data[k][: self._n] = column
+        for rows, old in reversed(checkpoint.journal):
+            for k, values in old.items():
+                self._data[k][rows] = values
+        self._n = checkpoint.rows
+        self._journal = None
         self._index = None
+
+    def release(self, checkpoint: Checkpoint) -> None:
+        """Keep what was written since the ``checkpoint``: writes are no longer recorded for it."""
+        if self._journal is checkpoint.journal:
+            self._journal = None
 
     def near(self, bounds: tuple[float, float, float, float]) -> NDArray[np.intp]:
         """Ids of the segments not absorbed (nor forgotten, :meth:`forget`) whose bounding boxes meet ``bounds`` =
@@ -297,6 +328,20 @@ class SegmentStore:
         """Give a string column room for longer strings."""
         columns = self._features if name in self._features else self._data
         columns[name] = columns[name].astype(dtype)
+
+
+@dataclass(frozen=True, eq=False)
+class Checkpoint:
+    """A :meth:`SegmentStore.checkpoint`: the rows then, and what was overwritten since (rows, old values)."""
+
+    rows: int
+    journal: list[tuple[NDArray[np.intp], dict[str, NDArray[Any]]]]
+
+
+def _read_only(view: NDArray[Any]) -> NDArray[Any]:
+    """The view, not writable (the store's columns change only through the store)."""
+    view.flags.writeable = False
+    return view
 
 
 def _boxes(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:

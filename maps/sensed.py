@@ -12,7 +12,7 @@ computed from them) the form that ``map.json`` keeps in its optional graph key
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
@@ -81,11 +81,28 @@ class Sensed:
         return max(float(returned.max()) if len(returned) else 0.0, sonar)
 
 
+@dataclass(eq=False)
+class _Kept:
+    """The sensed features last computed for a map's segments, and what an update overwrote of them.
+
+    Attributes
+    ----------
+    columns : name -> the feature of every segment row, at least ``rows`` long (room to grow; the rows beyond
+        ``rows`` hold the feature's :data:`SENSED_FEATURES` value, as never computed).
+    rows : the rows the features are kept for (the segments the last judgement saw).
+    journal : since :func:`features_checkpoint`, (name, rows, old values) of every write, in order.
+    """
+
+    columns: dict[str, NDArray[np.str_]] = field(default_factory=dict)
+    rows: int = 0
+    journal: list[tuple[str, NDArray[np.intp], NDArray[np.str_]]] = field(default_factory=list)
+
+
 _MEMORY: WeakKeyDictionary[BeliefMap, dict[int, Sensed]] = WeakKeyDictionary()
 _PLACES: WeakKeyDictionary[BeliefMap, tuple[list[Sensed], NDArray[np.float64], NDArray[np.float64]]] = (
     WeakKeyDictionary()
 )  # the poses by pose index, their origins and reaches: kept as poses are remembered
-_FEATURES: WeakKeyDictionary[BeliefMap, dict[str, NDArray[np.str_]]] = WeakKeyDictionary()
+_FEATURES: WeakKeyDictionary[BeliefMap, _Kept] = WeakKeyDictionary()
 
 
 def remember(bm: BeliefMap, obs: Observation) -> Sensed:
@@ -117,20 +134,27 @@ def remember(bm: BeliefMap, obs: Observation) -> Sensed:
     return kept
 
 
-def features_checkpoint(bm: BeliefMap) -> dict[str, NDArray[np.str_]]:
-    """A copy of the features last computed for the map's segments, for :func:`forget`."""
-    return {name: column.copy() for name, column in _FEATURES.get(bm, {}).items()}
+def features_checkpoint(bm: BeliefMap) -> tuple[int, frozenset[str]]:
+    """What :func:`forget` needs to put the segments' features back as they are now: their rows and names;
+    the writes from now on are journalled (what an update writes, not every row)."""
+    kept = _kept(bm)
+    kept.journal = []
+    return kept.rows, frozenset(kept.columns)
 
 
-def forget(bm: BeliefMap, pose_index: int, features: dict[str, NDArray[np.str_]]) -> None:
+def forget(bm: BeliefMap, pose_index: int, features: tuple[int, frozenset[str]]) -> None:
     """Forget what a pose sensed and put back the segments' features of a :func:`features_checkpoint` (the
     pose's update failed, and the map is put back as it was before it)."""
     _memory(bm).pop(int(pose_index), None)
     _PLACES.pop(bm, None)
-    if features:
-        _FEATURES[bm] = features
-    else:
-        _FEATURES.pop(bm, None)
+    kept = _kept(bm)
+    for name, rows, old in reversed(kept.journal):
+        kept.columns[name][rows] = old
+    kept.rows, names = features
+    kept.columns = {name: column for name, column in kept.columns.items() if name in names}
+    for name, column in kept.columns.items():
+        column[kept.rows :] = SENSED_FEATURES[name]  # the rows beyond: never computed
+    kept.journal = []
 
 
 def _memory(bm: BeliefMap) -> dict[int, Sensed]:
@@ -138,9 +162,23 @@ def _memory(bm: BeliefMap) -> dict[int, Sensed]:
     if bm not in _MEMORY:
         kept, features = sensed_from_json(bm.graph.graph.pop(SENSED_KEY, None))
         _MEMORY[bm] = {s.pose_index: s for s in kept}
-        if features:
-            _FEATURES[bm] = features
+        rows = max((len(column) for column in features.values()), default=0)
+        _FEATURES[bm] = _Kept({name: _grown(column, rows, name) for name, column in features.items()}, rows)
     return _MEMORY[bm]
+
+
+def _kept(bm: BeliefMap) -> _Kept:
+    """The map's kept features."""
+    _memory(bm)
+    return _FEATURES[bm]
+
+
+def _grown(column: NDArray[np.str_], rows: int, name: str) -> NDArray[np.str_]:
+    """The column, with room for at least ``rows`` rows (doubling; the new rows never computed)."""
+    if len(column) >= rows:
+        return column
+    more = np.full(max(rows, 2 * len(column)) - len(column), SENSED_FEATURES[name], dtype="<U12")
+    return np.concatenate([column.astype("<U12"), more])
 
 
 def sensed(bm: BeliefMap) -> list[Sensed]:
@@ -210,7 +248,8 @@ def sensed_json(bm: BeliefMap) -> dict[str, Any] | None:
         record = {"pose_index": s.pose_index, "origin": s.origin.tolist(), "bearing": s.bearing.tolist()}
         record |= {"range": _floats(s.range), "sonar": sonar}
         records.append(record | {"all_returns": True} if s.all_returns else record)
-    features = {name: column.tolist() for name, column in _FEATURES.get(bm, {}).items()}
+    kept = _kept(bm)
+    features = {name: column[: kept.rows].tolist() for name, column in kept.columns.items()}
     return {"poses": records, "features": features}
 
 
@@ -256,24 +295,21 @@ def sensed_from_json(data: Any) -> tuple[list[Sensed], dict[str, NDArray[np.str_
 
 def keep_features(bm: BeliefMap, ids: NDArray[np.intp], features: dict[str, NDArray[np.str_]]) -> None:
     """Keep the sensed features last computed for the map's segments ``ids`` (rows of its segment store)."""
-    _memory(bm)
-    kept = _FEATURES.setdefault(bm, {})
-    rows = len(bm.segments)
+    kept = _kept(bm)
+    kept.rows = max(kept.rows, len(bm.segments))
     for name, values in features.items():
-        column = kept.get(name, np.zeros(0, dtype="<U12"))
-        if len(column) < rows:
-            column = np.concatenate([column, np.full(rows - len(column), SENSED_FEATURES[name], dtype="<U12")])
+        column = kept.columns[name] = _grown(kept.columns.get(name, np.zeros(0, dtype="<U12")), kept.rows, name)
+        kept.journal.append((name, ids, column[ids]))
         column[ids] = values
-        kept[name] = column
 
 
 def kept_features(bm: BeliefMap, ids: NDArray[np.intp]) -> dict[str, NDArray[np.str_]]:
     """The sensed features last computed for segments ``ids``; no evidence for those never computed."""
-    _memory(bm)
-    kept = _FEATURES.get(bm, {})
+    kept = _kept(bm)
     ids = np.asarray(ids, dtype=np.intp)
     out = {}
     for name, none in SENSED_FEATURES.items():
-        column = np.append(kept.get(name, np.zeros(0, dtype="<U12")), none)  # the last: never computed
-        out[name] = column[np.minimum(ids, len(column) - 1)]
+        column = kept.columns.get(name, np.zeros(0, dtype="<U12"))
+        known = ids < min(len(column), kept.rows)
+        out[name] = np.where(known, column[np.where(known, ids, 0)] if len(column) else none, none)
     return out

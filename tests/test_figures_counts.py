@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from matplotlib.figure import Figure
 
+from evmap.maps import BeliefMap
 from evmap.maps.app import figures
 from evmap.maps.app.run import Run, report, run_scenario
 from evmap.sources.config import load_config
@@ -124,8 +125,9 @@ def test_a_multi_pose_run_counts_the_phantoms_of_every_pose() -> None:
 
 def test_figures_of_measured_data_draw_no_true_walls_and_no_truth(tmp_path: Path) -> None:
     simulated = run_scenario(default_scenario(), load_config())
-    simulated.map.segments.truth[:] = ""  # ground truth unknown, as from a log
-    run = dataclasses.replace(simulated, world=None)
+    data = simulated.map.to_data()
+    data["graph"]["segments"]["truth"] = [""] * len(simulated.map.segments)  # ground truth unknown, as from a log
+    run = dataclasses.replace(simulated, world=None, map=BeliefMap.from_data(data))
     paths = figures.write_figures(run, tmp_path)
     assert len(paths) == len(figures.FIGURE_FILES)
     for make in figures.FIGURE_FILES.values():

@@ -107,8 +107,9 @@ def test_size_limit_and_files_that_are_not_regular(saved, tmp_path, monkeypatch)
 
 def test_non_finite_ends_are_never_written_as_null(saved, tmp_path):
     bm = BeliefMap.load(saved)
-    bm.segments.p[0, 0] = np.nan
-    with pytest.raises(ValueError, match=r"segment 0 has a non-finite end \(p\)"):
+    store = bm.segments
+    (row,) = store.append([[np.nan, 0.0]], [[1.0, 0.0]], [0], [""], {k: v[:1] for k, v in store.features.items()})
+    with pytest.raises(ValueError, match=rf"segment {row} has a non-finite end \(p\)"):
         bm.save(tmp_path / "nan.json")
     assert not (tmp_path / "nan.json").exists()
 

@@ -15,22 +15,49 @@ from evmap.sources.sim.world import World
 FRAME = Frame(["real", "noise"])
 
 
-def test_append_grows_and_columns_are_writable_views():
+def test_append_grows_and_columns_are_read_only_views_written_by_the_store():
     store = SegmentStore.empty(FRAME)
     for k in range(100):
         ids = store.append([[k, 0.0]], [[k, 1.0]], [k % 3], ["real" if k % 2 else "noise"])
         assert ids.tolist() == [k]
     assert len(store) == 100 and store.p.shape == (100, 2) and store.mass.shape == (100, 4)
-    store.relation[[3, 5]] = "inside"
-    store.eliminated[3] = True
+    store.write([3, 5], relation="inside")
+    store.write([3], eliminated=True)
     assert store.relation[3] == "inside" and store.eliminated.sum() == 1 and store.line[99] == ""
+    with pytest.raises(ValueError, match="read-only"):
+        store.relation[4] = "inside"
+    with pytest.raises(ValueError, match=r"cannot write \['p'\]"):
+        store.write([0], p=[5.0, 5.0])
+    with pytest.raises(IndexError, match="not all among the 100 segments"):
+        store.write([100], line="L1")
     assert store.near((10.5, -1, 12.5, 2)).tolist() == [11, 12]
+
+
+def test_restore_puts_back_what_was_written_since_the_checkpoint_and_drops_the_rows_appended():
+    store = SegmentStore.empty(FRAME)
+    store.append([[0.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [2.0, 0.0]], [0, 0], ["", ""])
+    store.write([0, 1], relation="inside", line="L1")
+    before = store.to_json()
+    checkpoint = store.checkpoint()
+    store.write([1], relation="outside", eliminated=True)
+    store.append([[5.0, 5.0]], [[6.0, 5.0]], [1], [""])
+    store.write([1, 2], line="L2", mass=[[0.0, 0.5, 0.5, 0.0]] * 2)
+    store.consolidate([0, 1], [0.0, 0.0], [2.0, 0.0], "L3", 4)
+    store.restore(checkpoint)
+    assert store.to_json() == before
+    assert store.near((-1, -1, 10, 10)).tolist() == [0, 1]
+    kept = store.checkpoint()
+    store.write([0], relation="outside")
+    store.release(kept)
+    store.write([1], relation="outside")  # no longer journalled: stays whatever is restored
+    store.restore(kept)
+    assert store.relation.tolist() == ["inside", "outside"]
 
 
 def test_json_round_trip_with_features_is_exact():
     store = SegmentStore.empty(FRAME)
     store.append([[0.1, 1 / 3]], [[2.0, 0.7]], [0], ["noise"], {"ir_return": ["beyond"], "echo": [0.25]})
-    store.mass[0] = [0.0, 0.1, 0.7, 0.2]
+    store.write([0], mass=[0.0, 0.1, 0.7, 0.2])
     back = SegmentStore.from_json(store.to_json(), FRAME)
     assert back.to_json() == store.to_json()
     assert back.p[0, 1] == 1 / 3 and back.features["echo"].tolist() == [0.25]

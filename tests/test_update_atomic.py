@@ -1,13 +1,16 @@
 """A failed update leaves the map as it was: all or nothing."""
 
 import json
+from pathlib import Path
 
 import pytest
 
 from evmap import configs
 from evmap.maps import BeliefMap, new_map
+from evmap.maps.log_observation import observation_from_log
 from evmap.maps.observation import observe
 from evmap.sources.config import load_config
+from evmap.sources.logs import open_log
 from evmap.sources.sim.scenario import load_scenario
 from evmap.sources.sim.world import World
 
@@ -40,6 +43,29 @@ def test_a_failure_half_way_leaves_the_map_as_it_was(monkeypatch, tmp_path, conf
     assert content(bm) == content(direct) and again.pose_index == 1
     bm.save(tmp_path / "map.json")
     assert content(BeliefMap.load(tmp_path / "map.json")) == content(direct)
+
+
+def test_a_failure_half_way_through_a_log_leaves_the_map_as_it_was(monkeypatch):
+    """Later in a log: consolidated lines, rows of earlier scans judged again and merged anew; what the failed
+    update wrote to them (the store's journal, the sensed features') is put back, not the whole store."""
+    config = load_config()
+    log = Path(__file__).parent / "data" / "logs" / "intel-excerpt.log.gz"
+    observations = [observation_from_log(r, config, k) for k, r in enumerate(open_log(log))][:12]
+    bm = new_map(config)
+    for obs in observations[:-1]:
+        bm.update(obs)
+    assert (bm.segments.role == "support").any()
+    before = content(bm)
+    with monkeypatch.context() as m:  # fail after noise elimination and the rebuild have changed the map
+        m.setattr("evmap.maps.pipeline.refresh_points", lambda *a: (_ for _ in ()).throw(RuntimeError("half-way")))
+        with pytest.raises(RuntimeError, match="half-way"):
+            bm.update(observations[-1])
+    assert content(bm) == before
+    bm.update(observations[-1])
+    direct = new_map(config)
+    for obs in observations:
+        direct.update(obs)
+    assert content(bm) == content(direct)
 
 
 def test_nested_transactions_leave_it_to_the_outer_one():
