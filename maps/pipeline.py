@@ -5,8 +5,8 @@
 1. Open space: the primitive RCDs of the sonar scan, typed I-IV, give this
    pose's open space (:mod:`evmap.sources.open_space`), added to the map's.
 2. Noise elimination (:mod:`evmap.maps.noise`): the new LSL segments, and the
-   stored ones that the new open space reaches, are judged against the map's
-   open space; eliminated ones leave the map.
+   stored ones that the new open space reaches or the new rays go through, are
+   judged against the map's open space; eliminated ones leave the map.
 3.-4. Merging and corners near the change (:mod:`evmap.maps.rebuild`).
 5.-6. Simulated sonar from the map, with the same sonar model as the world, and
    matching of the two scans' RCDs (:mod:`evmap.maps.simulated_sonar`).
@@ -35,11 +35,12 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from evmap.maps.contour_free_space import RayParams, ray_tally
 from evmap.maps.noise import COMPUTED, judge, settled
 from evmap.maps.observation import Observation
 from evmap.maps.rebuild import rebuild, refresh_points
 from evmap.maps.reinforcement import reinforce
-from evmap.maps.sensed import features_checkpoint, forget, remember
+from evmap.maps.sensed import Sensed, features_checkpoint, forget, pose_sensed, remember
 from evmap.maps.simulated_sonar import check_sonar
 from evmap.maps.unidentified import add_unidentified, drop_explained
 from evmap.sources.config_model import Config
@@ -113,7 +114,7 @@ def _fold(bm: BeliefMap, obs: Observation, config: Config) -> PoseOutcome:
 
     # 2. noise elimination of the new segments and of the stored ones the new open space reaches
     new = store.append(obs.lsl.p, obs.lsl.q, np.full(len(obs.lsl), obs.pose_index), obs.lsl.truth, obs.features)
-    touched = touched_segments(bm, new, space, config)
+    touched = touched_segments(bm, new, space, config, pose_sensed(bm, obs.pose_index))
     judge(bm, touched, config)
 
     # 3.-4. merge and find corners near the change
@@ -145,13 +146,18 @@ def _fold(bm: BeliefMap, obs: Observation, config: Config) -> PoseOutcome:
     )
 
 
-def touched_segments(bm: BeliefMap, new: NDArray[np.intp], space: shapely.Geometry, config: Config) -> NDArray[np.intp]:
-    """The stored segments an update must judge again: near a new segment, or where the new open space is.
+def touched_segments(
+    bm: BeliefMap, new: NDArray[np.intp], space: shapely.Geometry, config: Config, sensed: Sensed | None = None
+) -> NDArray[np.intp]:
+    """The stored segments an update must judge again: near a new segment, where the new open space is, or
+    where the new pose's rays (``sensed``) went through.
 
     A segment's verdict changes only when another pose's segment comes to lie on
-    it (``lsl_other_poses``) or new open space reaches it, so the rows whose boxes
+    it (``lsl_other_poses``), new open space reaches it, or a new pose's rays go
+    through it (``contour_free``, ``lsl_persistence``), so the rows whose boxes
     meet a new segment's box (grown by the merging reach) or a piece of the new
-    open space's box are all: what the observation touches, at any map size. A
+    open space's box, and those that at least ``min_passes`` of the new rays
+    pass through, are all: what the observation touches, at any map size. A
     segment eliminated by the map's poses before the latest
     :data:`~evmap.maps.noise.LATEST_POSES` is settled: noise for good, not judged
     again (a place passed again and again does not pile up its phantoms' work).
@@ -163,6 +169,13 @@ def touched_segments(bm: BeliefMap, new: NDArray[np.intp], space: shapely.Geomet
         boxes.append(shapely.bounds(shapely.get_parts(space)))
     grown = np.concatenate(boxes).reshape(-1, 4) + np.array([-margin, -margin, margin, margin])
     found = np.unique(np.concatenate([new, *(store.near(tuple(box)) for box in grown.tolist())]))
+    if sensed is not None and len(sensed.bearing):
+        reach = min(sensed.reach, config.sensors.lsl.max_range)
+        seen = np.setdiff1d(store.near((*(sensed.origin - reach), *(sensed.origin + reach))), found)
+        seen = seen[~settled(bm, seen)]
+        params = RayParams(range_noise=config.sensors.lsl.range_noise, max_range=config.sensors.lsl.max_range)
+        passes = ray_tally(store.p[seen], store.q[seen], store.pose[seen], [sensed], params).passes
+        found = np.union1d(found, seen[passes >= params.min_passes])
     old = settled(bm, found)
     store.forget(found[old])  # noise for good: no later lookup finds them
     return found[~old]

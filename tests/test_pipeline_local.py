@@ -5,17 +5,21 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import shapely
 
 from evmap import configs
 from evmap.maps.app.log_run import run_log
 from evmap.maps.app.run import run_scenario
 from evmap.maps.belief_map import new_map
 from evmap.maps.corners import find_corners
+from evmap.maps.log_observation import observation_from_log
 from evmap.maps.merging import merge_segments
 from evmap.maps.noise import LATEST_POSES, settled
 from evmap.maps.observation import Observation, observe
 from evmap.maps.pipeline import touched_segments
+from evmap.maps.sensed import pose_sensed, remember
 from evmap.sources.config import load_config
+from evmap.sources.logs.scan import LaserScan, LogRecord
 from evmap.sources.readings import LslSegments
 from evmap.sources.relation import relation
 from evmap.sources.sim.scenario import default_scenario, load_scenario
@@ -145,3 +149,27 @@ def test_lines_a_scan_comes_near_but_leaves_as_they_are_stay_as_they_are():
     assert after[:3] == before and [lid for lid, *_ in after[3:]] == ["L4"]
     fits = np.array([fit for *_, fit in after])
     assert find_corners(fits[:, 0], fits[:, 1], bm.config.corners).xy.tolist() == [list(bm.graph.nodes["C1"]["xy"])]
+
+
+def test_a_segment_the_new_rays_go_through_is_judged_again_though_nothing_is_seen_beside_it():
+    """A person seen once by a laser without sonar: no open space, and the next scan sees nothing near their
+    place, only the wall behind; its rays through the place contradict the person's segment."""
+    config = load_config("default")
+    angles = np.radians(np.arange(-30.0, 30.5, 0.5))
+    wall = 4.0 / np.cos(angles)
+    person = np.where(np.abs(2.0 * np.tan(angles)) <= 0.15, 2.0 / np.cos(angles), wall)
+    scans = [LaserScan(float(k), np.zeros(3), angles, ranges, 80.0) for k, ranges in enumerate([person, wall])]
+    first, second = (observation_from_log(LogRecord(k, s, np.zeros(3)), config, k) for k, s in enumerate(scans))
+    bm = new_map(config)
+    bm.update(first)
+    store = bm.segments
+    (there,) = np.flatnonzero(np.isclose(store.p[:, 0], 2.0, atol=0.05))
+    assert store.line[there] != "" and not store.eliminated[there]
+    remember(bm, second)
+    new = store.append(second.lsl.p, second.lsl.q, np.full(len(second.lsl), 1), second.lsl.truth)
+    assert there not in touched_segments(bm, new, shapely.MultiPolygon(), config)  # nothing near it
+    assert there in touched_segments(bm, new, shapely.MultiPolygon(), config, pose_sensed(bm, 1))
+    bm = new_map(config)
+    bm.update(first)
+    bm.update(second)
+    assert bm.segments.eliminated[there] and bm.segments.line[there] == ""
