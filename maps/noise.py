@@ -177,9 +177,9 @@ def _near_each(store: SegmentStore, ids: NDArray[np.intp], reach: float) -> NDAr
     hi = np.maximum(store.p[ids], store.q[ids]) + reach
     found = store.near((*lo.min(axis=0), *hi.max(axis=0)))
     flo, fhi = np.minimum(store.p[found], store.q[found]), np.maximum(store.p[found], store.q[found])
-    tree = shapely.STRtree(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]))
-    meets, _ = tree.query(shapely.box(flo[:, 0], flo[:, 1], fhi[:, 0], fhi[:, 1]))
-    return found[np.unique(meets)]
+    meets = (flo[:, None, 0] <= hi[:, 0]) & (fhi[:, None, 0] >= lo[:, 0])  # (found, ids), edges touching
+    meets &= (flo[:, None, 1] <= hi[:, 1]) & (fhi[:, None, 1] >= lo[:, 1])
+    return found[meets.any(axis=1)]
 
 
 def other_poses(

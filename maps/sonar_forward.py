@@ -31,7 +31,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import shapely
 from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed
@@ -103,11 +102,14 @@ def free_ends(
     out = np.ones((len(p), 2), dtype=bool)
     if not len(op) or not len(p):
         return out
-    tree = shapely.STRtree(shapely.linestrings(np.stack([op, oq], axis=1)))
+    olo, ohi = np.minimum(op, oq), np.maximum(op, oq)
     e = q - p
     for k, point in enumerate((p, q)):
         # pairs (end, other segment) within the clearance: the only ones that can hold the end
-        i, j = tree.query(shapely.box(*(point - clearance).T, *(point + clearance).T))  # boxes meeting
+        lo, hi = point - clearance, point + clearance
+        meets = (lo[:, None, 0] <= ohi[:, 0]) & (hi[:, None, 0] >= olo[:, 0])  # boxes meeting, edges touching
+        meets &= (lo[:, None, 1] <= ohi[:, 1]) & (hi[:, None, 1] >= olo[:, 1])
+        i, j = np.nonzero(meets)
         close = point_segment_distances(point[i], op[j], oq[j]) <= clearance
         i, j = i[close], j[close]
         same = (np.abs(op[j] - p[i]).sum(axis=1) < 1e-12) & (np.abs(oq[j] - q[i]).sum(axis=1) < 1e-12)
