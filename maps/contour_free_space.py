@@ -145,14 +145,10 @@ def _crossings(
     """
     n, m = len(p), len(poses)
     origin = np.array([s.origin for s in poses], dtype=float).reshape(-1, 2)
-    sizes = np.array([len(s.bearing) for s in poses], dtype=np.intp)
-    starts = np.r_[0, np.cumsum(sizes)[:-1]]
-    bearing = np.concatenate([np.zeros(0), *(s.bearing for s in poses)])
-    rng = np.concatenate([np.zeros(0), *(s.range for s in poses)])
-    flags = np.concatenate([np.zeros(0, dtype=bool), *(beyond or (np.zeros(len(s.range), dtype=bool) for s in poses))])
+    sizes, starts, bearing, rng = _laid_out(poses)
     shift = 4 * np.pi * np.arange(m)
     doubled = np.concatenate(
-        [np.zeros(0), *(np.r_[s.bearing, s.bearing + 2 * np.pi] + shift[k] for k, s in enumerate(poses))]
+        [np.zeros(0), *(t + shift[k] for k, s in enumerate(poses) for t in (s.bearing, s.bearing + 2 * np.pi))]
     )
     a = (p[None] - origin[:, None]).reshape(-1, 2)  # (pose, segment) pairs, pose-major
     b = (q[None] - origin[:, None]).reshape(-1, 2)
@@ -168,8 +164,8 @@ def _crossings(
     at = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())  # in ``doubled``
     size = np.maximum(sizes[k], 1)
     ray = starts[k] + (at - 2 * starts[k]) % size  # ``doubled`` holds 2 * size entries a pose, in order
-    theta, r = bearing[ray], rng[ray]
-    u = np.column_stack([np.cos(theta), np.sin(theta)])
+    r = rng[ray]
+    u = np.column_stack([np.cos(bearing), np.sin(bearing)])[ray]
     a, b = a[pair], b[pair]
     e = b - a
     length = np.maximum(np.hypot(*e.T), 1e-12)
@@ -181,10 +177,12 @@ def _crossings(
     inside = (np.abs(cross) > 1e-12) & (t > 0) & (along >= margin) & (along <= length - margin)
     across = (r - t) * sin  # the point's distance beyond the segment, across it
     tol = params.tolerance + 3 * params.range_noise * t * sin
-    kind = np.select([np.isnan(r), across > tol, across < -tol], [3, 1, 2], 0)
-    kind[(kind == 2) & flags[ray]] = 3  # it went on beyond its point, through the segment
-    kind[((kind == 3) & (t > params.max_range))] = 4  # out of range: not counted
-    keep = inside & (kind < 4)
+    short = across < -tol
+    none = np.isnan(r)
+    if beyond:
+        none |= short & np.concatenate(beyond)[ray]  # it went on beyond its point, through the segment
+    kind = np.where(none, 3, np.where(across > tol, 1, np.where(short, 2, 0)))
+    keep = inside & ~(none & (t > params.max_range))  # out of range: not counted
     return seg[keep], k[keep], kind[keep]
 
 
@@ -214,7 +212,7 @@ def ray_tally(
     by_kind = np.zeros((n, m, 4), dtype=np.intp)
     if n and m:
         seg, k, kind = _crossings(p, q, poses, params, beyond)
-        np.add.at(by_kind, (seg, k, kind), 1)
+        by_kind = np.bincount((seg * m + k) * 4 + kind, minlength=n * m * 4).reshape(n, m, 4)
     other = pose[:, None] != np.array([s.pose_index for s in poses], dtype=np.intp)[None, :]
     through = by_kind[:, :, 1] + by_kind[:, :, 3]
     return RayTally(
@@ -276,7 +274,8 @@ def stripe_edges(
     on at 1 deg and is hidden beyond 3.6 deg.
     """
     out = np.ones((len(p), 2), dtype=bool)
-    k, sizes, starts, bearing, rng = _laid_out(pose, poses)
+    k = _positions(pose, poses)
+    sizes, starts, bearing, rng = _laid_out(poses)
     rows = np.flatnonzero(k >= 0)
     rows = rows[np.argsort(k[rows], kind="stable")]  # by pose: each pose's ends are searched in its own rays
     rows = rows[sizes[k[rows]] > 0]
@@ -328,20 +327,24 @@ def stripe_edges(
     return out
 
 
-def _laid_out(
-    pose: NDArray[np.intp], poses: Sequence[Sensed]
-) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
-    """The rays of the ``poses`` laid end to end, and where each of the segments seen from ``pose`` finds its own:
-    per segment its pose's position in ``poses`` (-1 if not there), per pose its number of rays and first ray,
-    and every ray's bearing and range."""
+def _positions(pose: NDArray[np.intp], poses: Sequence[Sensed]) -> NDArray[np.intp]:
+    """Per segment seen from ``pose``, its pose's position in ``poses`` (-1 if not there)."""
     index = np.array([s.pose_index for s in poses], dtype=np.intp)
     k = np.full(len(pose), -1, dtype=np.intp)
     if len(index):
         order = np.argsort(index)
         at = np.minimum(np.searchsorted(index[order], pose), len(index) - 1)
         k = np.where(index[order][at] == pose, order[at], -1)
+    return k
+
+
+def _laid_out(
+    poses: Sequence[Sensed],
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+    """The rays of the ``poses`` laid end to end: per pose its number of rays and first ray, every ray's bearing and
+    range."""
     sizes = np.array([len(s.bearing) for s in poses], dtype=np.intp)
     starts = np.cumsum(sizes) - sizes
     bearing = np.concatenate([np.zeros(0), *(s.bearing for s in poses)])
     rng = np.concatenate([np.zeros(0), *(s.range for s in poses)])
-    return k, sizes, starts, bearing, rng
+    return sizes, starts, bearing, rng
