@@ -165,10 +165,10 @@ def _crossings(
     size = np.maximum(sizes[k], 1)
     ray = starts[k] + (at - 2 * starts[k]) % size  # ``doubled`` holds 2 * size entries a pose, in order
     r = rng[ray]
-    u = np.column_stack([np.cos(bearing), np.sin(bearing)])[ray]
-    a, b = a[pair], b[pair]
+    u = np.take(np.column_stack([np.cos(bearing), np.sin(bearing)]), ray, axis=0)  # u[ray], faster
     e = b - a
     length = np.maximum(np.hypot(*e.T), 1e-12)
+    a, e, length = (np.repeat(x, count, axis=0) for x in (a, e, length))  # x[pair], faster
     t, along = crossings(np.zeros(2), u, a, e)  # the crossing's range along the ray, its place on the segment
     along = along * length  # in metres
     cross = u[:, 0] * e[:, 1] - u[:, 1] * e[:, 0]
@@ -309,7 +309,7 @@ def stripe_edges(
     gap = (tripled[at] - end_bearing[pair]) * sign[pair]  # how far beyond the end, in bearing
     tol = params.tolerance + 3 * params.range_noise * r[pair]
     points = rng[ray, None] * np.column_stack([np.cos(bearing[ray]), np.sin(bearing[ray])])
-    away = np.hypot(*(points - end[pair]).T)
+    away = np.hypot(*(points - np.repeat(end, count, axis=0)).T)  # end[pair]
     away[np.isnan(away)] = np.inf
     # the end's own ray: the one whose point is nearest the end, if on it; the next ray lies beyond it
     nearest = np.full(len(end), np.inf)
