@@ -114,15 +114,17 @@ def free_ends(
     at = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())
     meets = (lo[at, 1] <= ohi[j, 1]) & (hi[at, 1] >= olo[j, 1])
     end, j = by_x[at[meets]], j[meets]
-    close = point_segment_distances(point[end], op[j], oq[j]) <= clearance
+    # rows by np.take: x[rows] of a 2-D x is much slower
+    away = point_segment_distances(*(np.take(x, rows, axis=0) for x, rows in ((point, end), (op, j), (oq, j))))
+    close = away <= clearance
     end, j = end[close], j[close]
     i = end % n  # the segment of the end
-    same = (np.abs(op[j] - p[i]).sum(axis=1) < 1e-12) & (np.abs(oq[j] - q[i]).sum(axis=1) < 1e-12)
-    end, i, j = end[~same], i[~same], j[~same]
-    e, d = q[i] - p[i], oq[j] - op[j]
+    xy, pi, qi, pj, qj = (np.take(x, rows, axis=0) for x, rows in ((point, end), (p, i), (q, i), (op, j), (oq, j)))
+    same = (np.abs(pj - pi).sum(axis=1) < 1e-12) & (np.abs(qj - qi).sum(axis=1) < 1e-12)
+    e, d = qi - pi, qj - pj
     cos = np.abs((e * d).sum(axis=1)) / np.maximum(np.hypot(*e.T) * np.hypot(*d.T), 1e-300)
-    corner = np.minimum(np.hypot(*(point[end] - op[j]).T), np.hypot(*(point[end] - oq[j]).T)) <= clearance
-    held = (cos >= np.cos(np.radians(angle_deg))) | corner
+    corner = np.minimum(np.hypot(*(xy - pj).T), np.hypot(*(xy - qj).T)) <= clearance
+    held = ((cos >= np.cos(np.radians(angle_deg))) | corner) & ~same
     out[i[held], end[held] // n] = False
     return out
 
