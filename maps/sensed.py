@@ -86,6 +86,9 @@ _PLACES: WeakKeyDictionary[BeliefMap, tuple[list[Sensed], NDArray[np.float64], N
     WeakKeyDictionary()
 )  # the poses by pose index, their origins and reaches: kept as poses are remembered
 _FEATURES: WeakKeyDictionary[BeliefMap, dict[str, NDArray[np.str_]]] = WeakKeyDictionary()
+_ROOM: WeakKeyDictionary[BeliefMap, dict[str, NDArray[np.str_]]] = WeakKeyDictionary()
+"""Per map and feature, the array a kept column is the start of (a view), its rows beyond the column no evidence:
+a column grows into it, and a new one twice as long, as the store grows."""
 
 
 def remember(bm: BeliefMap, obs: Observation) -> Sensed:
@@ -257,12 +260,16 @@ def sensed_from_json(data: Any) -> tuple[list[Sensed], dict[str, NDArray[np.str_
 def keep_features(bm: BeliefMap, ids: NDArray[np.intp], features: dict[str, NDArray[np.str_]]) -> None:
     """Keep the sensed features last computed for the map's segments ``ids`` (rows of its segment store)."""
     _memory(bm)
-    kept = _FEATURES.setdefault(bm, {})
+    kept, room = _FEATURES.setdefault(bm, {}), _ROOM.setdefault(bm, {})
     rows = len(bm.segments)
     for name, values in features.items():
         column = kept.get(name, np.zeros(0, dtype="<U12"))
         if len(column) < rows:
-            column = np.concatenate([column, np.full(rows - len(column), SENSED_FEATURES[name], dtype="<U12")])
+            grown = room.get(name)
+            if grown is None or column.base is not grown or len(grown) < rows:  # a new one, twice as long
+                grown = room[name] = np.full(max(rows, 2 * len(column)), SENSED_FEATURES[name], dtype="<U12")
+                grown[: len(column)] = column
+            column = grown[:rows]
         column[ids] = values
         kept[name] = column
 
@@ -274,6 +281,8 @@ def kept_features(bm: BeliefMap, ids: NDArray[np.intp]) -> dict[str, NDArray[np.
     ids = np.asarray(ids, dtype=np.intp)
     out = {}
     for name, none in SENSED_FEATURES.items():
-        column = np.append(kept.get(name, np.zeros(0, dtype="<U12")), none)  # the last: never computed
-        out[name] = column[np.minimum(ids, len(column) - 1)]
+        column = kept.get(name, np.zeros(0, dtype="<U12"))
+        computed = ids < len(column)
+        out[name] = np.full(ids.shape, none, dtype="<U12")
+        out[name][computed] = column[ids[computed]]
     return out
