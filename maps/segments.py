@@ -221,7 +221,7 @@ class SegmentStore:
         An index of the rows by pose: it costs the rows of the pose, at any size of the store.
 
         >>> store = SegmentStore.empty(Frame(["real", "noise"]))
-        >>> ids = store.append([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]], [[1.0, 0.0], [2.0, 0.0], [3.0, 0.0]], [3, 5, 3], [""] * 3)
+        >>> ids = store.append([[0, 0], [1, 0], [2, 0]], [[1, 0], [2, 0], [3, 0]], [3, 5, 3], ["", "", ""])
         >>> store.seen_from(3).tolist(), store.seen_from(4).tolist()
         ([0, 2], [])
         """

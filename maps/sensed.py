@@ -130,6 +130,7 @@ def forget(bm: BeliefMap, pose_index: int, features: dict[str, NDArray[np.str_]]
     pose's update failed, and the map is put back as it was before it)."""
     _memory(bm).pop(int(pose_index), None)
     _PLACES.pop(bm, None)
+    _ROOM.pop(bm, None)
     if features:
         _FEATURES[bm] = features
     else:
