@@ -145,14 +145,10 @@ def _crossings(
     """
     n, m = len(p), len(poses)
     origin = np.array([s.origin for s in poses], dtype=float).reshape(-1, 2)
-    sizes = np.array([len(s.bearing) for s in poses], dtype=np.intp)
-    starts = np.r_[0, np.cumsum(sizes)[:-1]]
-    bearing = np.concatenate([np.zeros(0), *(s.bearing for s in poses)])
-    rng = np.concatenate([np.zeros(0), *(s.range for s in poses)])
-    flags = np.concatenate([np.zeros(0, dtype=bool), *(beyond or (np.zeros(len(s.range), dtype=bool) for s in poses))])
+    sizes, starts, bearing, rng = _laid_out(poses)
     shift = 4 * np.pi * np.arange(m)
     doubled = np.concatenate(
-        [np.zeros(0), *(np.r_[s.bearing, s.bearing + 2 * np.pi] + shift[k] for k, s in enumerate(poses))]
+        [np.zeros(0), *(t + shift[k] for k, s in enumerate(poses) for t in (s.bearing, s.bearing + 2 * np.pi))]
     )
     a = (p[None] - origin[:, None]).reshape(-1, 2)  # (pose, segment) pairs, pose-major
     b = (q[None] - origin[:, None]).reshape(-1, 2)
@@ -168,11 +164,11 @@ def _crossings(
     at = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())  # in ``doubled``
     size = np.maximum(sizes[k], 1)
     ray = starts[k] + (at - 2 * starts[k]) % size  # ``doubled`` holds 2 * size entries a pose, in order
-    theta, r = bearing[ray], rng[ray]
-    u = np.column_stack([np.cos(theta), np.sin(theta)])
-    a, b = a[pair], b[pair]
+    r = rng[ray]
+    u = np.take(np.column_stack([np.cos(bearing), np.sin(bearing)]), ray, axis=0)  # u[ray], faster
     e = b - a
     length = np.maximum(np.hypot(*e.T), 1e-12)
+    a, e, length = (np.repeat(x, count, axis=0) for x in (a, e, length))  # x[pair], faster
     t, along = crossings(np.zeros(2), u, a, e)  # the crossing's range along the ray, its place on the segment
     along = along * length  # in metres
     cross = u[:, 0] * e[:, 1] - u[:, 1] * e[:, 0]
@@ -181,10 +177,12 @@ def _crossings(
     inside = (np.abs(cross) > 1e-12) & (t > 0) & (along >= margin) & (along <= length - margin)
     across = (r - t) * sin  # the point's distance beyond the segment, across it
     tol = params.tolerance + 3 * params.range_noise * t * sin
-    kind = np.select([np.isnan(r), across > tol, across < -tol], [3, 1, 2], 0)
-    kind[(kind == 2) & flags[ray]] = 3  # it went on beyond its point, through the segment
-    kind[((kind == 3) & (t > params.max_range))] = 4  # out of range: not counted
-    keep = inside & (kind < 4)
+    short = across < -tol
+    none = np.isnan(r)
+    if beyond:
+        none |= short & np.concatenate(beyond)[ray]  # it went on beyond its point, through the segment
+    kind = np.where(none, 3, np.where(across > tol, 1, np.where(short, 2, 0)))
+    keep = inside & ~(none & (t > params.max_range))  # out of range: not counted
     return seg[keep], k[keep], kind[keep]
 
 
@@ -214,7 +212,7 @@ def ray_tally(
     by_kind = np.zeros((n, m, 4), dtype=np.intp)
     if n and m:
         seg, k, kind = _crossings(p, q, poses, params, beyond)
-        np.add.at(by_kind, (seg, k, kind), 1)
+        by_kind = np.bincount((seg * m + k) * 4 + kind, minlength=n * m * 4).reshape(n, m, 4)
     other = pose[:, None] != np.array([s.pose_index for s in poses], dtype=np.intp)[None, :]
     through = by_kind[:, :, 1] + by_kind[:, :, 3]
     return RayTally(
@@ -276,39 +274,77 @@ def stripe_edges(
     on at 1 deg and is hidden beyond 3.6 deg.
     """
     out = np.ones((len(p), 2), dtype=bool)
+    k = _positions(pose, poses)
+    sizes, starts, bearing, rng = _laid_out(poses)
+    rows = np.flatnonzero(k >= 0)
+    rows = rows[np.argsort(k[rows], kind="stable")]  # by pose: each pose's ends are searched in its own rays
+    rows = rows[sizes[k[rows]] > 0]
+    if not len(rows):
+        return out
+    # the ends, p and q of each row in turn, relative to their pose's origin
+    origin = np.array([s.origin for s in poses], dtype=float)[k[rows]]
+    a, b = p[rows] - origin, q[rows] - origin
+    ba, bb = np.arctan2(a[:, 1], a[:, 0]), np.arctan2(b[:, 1], b[:, 0])
+    outward = np.where((bb - ba + np.pi) % (2 * np.pi) - np.pi >= 0, 1.0, -1.0)  # from p towards q
+    end = np.stack([a, b], axis=1).reshape(-1, 2)
+    end_bearing = np.column_stack([ba, bb]).ravel()
+    sign = np.column_stack([-outward, outward]).ravel()
+    end_pose = np.repeat(k[rows], 2)
+    r = np.hypot(*end.T)
+    # each end's rays within the window, in its pose's bearings over three turns (``tripled``, pose after pose)
     window = np.radians(params.edge_window_deg)
-    for s in poses:
-        rows = np.flatnonzero(pose == s.pose_index)
-        n = len(s.bearing)
-        if not len(rows) or not n:
-            continue
-        a, b = p[rows] - s.origin, q[rows] - s.origin
-        ba, bb = np.arctan2(a[:, 1], a[:, 0]), np.arctan2(b[:, 1], b[:, 0])
-        outward = np.where((bb - ba + np.pi) % (2 * np.pi) - np.pi >= 0, 1.0, -1.0)  # from p towards q
-        tripled = np.r_[s.bearing - 2 * np.pi, s.bearing, s.bearing + 2 * np.pi]
-        points = s.range[:, None] * np.column_stack([np.cos(s.bearing), np.sin(s.bearing)])
-        for k, (end, bearing, sign) in enumerate(((a, ba, -outward), (b, bb, outward))):
-            r = np.hypot(*end.T)
-            lo = np.searchsorted(tripled, bearing - window, side="left")
-            count = np.searchsorted(tripled, bearing + window, side="right") - lo
-            pair = np.repeat(np.arange(len(rows)), count)
-            at = np.repeat(lo - np.cumsum(count) + count, count) + np.arange(count.sum())  # in ``tripled``
-            ray = at % n
-            gap = (tripled[at] - bearing[pair]) * sign[pair]  # how far beyond the end, in bearing
-            tol = params.tolerance + 3 * params.range_noise * r[pair]
-            away = np.nan_to_num(np.hypot(*(points[ray] - end[pair]).T), nan=np.inf)
-            # the end's own ray: the one whose point is nearest the end, if on it; the next ray lies beyond it
-            nearest = np.full(len(rows), np.inf)
-            np.minimum.at(nearest, pair, away)
-            own = np.full(len(rows), -np.inf)
-            is_own = (away == nearest[pair]) & (away <= tol)
-            np.maximum.at(own, pair[is_own], gap[is_own])
-            beyond_end = np.flatnonzero(gap > np.maximum(own[pair], 0.0))
-            if not len(beyond_end):
-                continue
-            order = beyond_end[np.lexsort((gap[beyond_end], pair[beyond_end]))]
-            first = order[np.r_[True, pair[order][1:] != pair[order][:-1]]]  # each end's next ray
-            back = s.range[ray[first]]
-            near = back <= r[pair[first]] + params.edge_step + 3 * params.range_noise * r[pair[first]]  # NaN: False
-            out[rows[pair[first][near]], k] = False
+    tripled = np.concatenate([t for s in poses for t in (s.bearing - 2 * np.pi, s.bearing, s.bearing + 2 * np.pi)])
+    lo, hi = np.zeros(len(end), dtype=np.intp), np.zeros(len(end), dtype=np.intp)
+    bounds = np.searchsorted(end_pose, np.arange(len(poses) + 1))
+    for j in np.flatnonzero(np.diff(bounds)).tolist():
+        ends, base = slice(bounds[j], bounds[j + 1]), 3 * starts[j]
+        turns = tripled[base : base + 3 * sizes[j]]
+        lo[ends] = base + np.searchsorted(turns, end_bearing[ends] - window, side="left")
+        hi[ends] = base + np.searchsorted(turns, end_bearing[ends] + window, side="right")
+    count = hi - lo
+    pair = np.repeat(np.arange(len(end)), count)
+    at = np.repeat(lo - np.cumsum(count) + count, count) + np.arange(count.sum())  # in ``tripled``
+    kp = end_pose[pair]
+    ray = starts[kp] + (at - 3 * starts[kp]) % sizes[kp]
+    gap = (tripled[at] - end_bearing[pair]) * sign[pair]  # how far beyond the end, in bearing
+    tol = params.tolerance + 3 * params.range_noise * r[pair]
+    points = rng[ray, None] * np.column_stack([np.cos(bearing[ray]), np.sin(bearing[ray])])
+    away = np.hypot(*(points - np.repeat(end, count, axis=0)).T)  # end[pair]
+    away[np.isnan(away)] = np.inf
+    # the end's own ray: the one whose point is nearest the end, if on it; the next ray lies beyond it
+    nearest = np.full(len(end), np.inf)
+    np.minimum.at(nearest, pair, away)
+    own = np.full(len(end), -np.inf)
+    is_own = (away == nearest[pair]) & (away <= tol)
+    np.maximum.at(own, pair[is_own], gap[is_own])
+    beyond_end = np.flatnonzero(gap > np.maximum(own[pair], 0.0))
+    order = beyond_end[np.lexsort((gap[beyond_end], pair[beyond_end]))]
+    first = order[np.diff(pair[order], prepend=-1) != 0]  # each end's next ray
+    back = rng[ray[first]]
+    e = pair[first]
+    near = back <= r[e] + params.edge_step + 3 * params.range_noise * r[e]  # NaN: False
+    out[rows[e[near] // 2], e[near] % 2] = False
     return out
+
+
+def _positions(pose: NDArray[np.intp], poses: Sequence[Sensed]) -> NDArray[np.intp]:
+    """Per segment seen from ``pose``, its pose's position in ``poses`` (-1 if not there)."""
+    index = np.array([s.pose_index for s in poses], dtype=np.intp)
+    k = np.full(len(pose), -1, dtype=np.intp)
+    if len(index):
+        order = np.argsort(index)
+        at = np.minimum(np.searchsorted(index[order], pose), len(index) - 1)
+        k = np.where(index[order][at] == pose, order[at], -1)
+    return k
+
+
+def _laid_out(
+    poses: Sequence[Sensed],
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+    """The rays of the ``poses`` laid end to end: per pose its number of rays and first ray, every ray's bearing and
+    range."""
+    sizes = np.array([len(s.bearing) for s in poses], dtype=np.intp)
+    starts = np.cumsum(sizes) - sizes
+    bearing = np.concatenate([np.zeros(0), *(s.bearing for s in poses)])
+    rng = np.concatenate([np.zeros(0), *(s.range for s in poses)])
+    return sizes, starts, bearing, rng

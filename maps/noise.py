@@ -122,16 +122,16 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
     store = bm.segments
     if not len(ids):
         return
-    ends = np.concatenate([store.p[ids], store.q[ids]])
+    p, q, pose = store.p[ids], store.q[ids], store.pose[ids]
+    ends = np.concatenate([p, q])
     lo, hi = ends.min(axis=0), ends.max(axis=0)
     space = bm.open_space_parts_near((*lo, *hi))
-    near = _near_each(store, ids, config.merge.distance + config.merge.gap)
+    near = _near_each(store, p, q, config.merge.distance + config.merge.gap)
     old = settled(bm, near)
     store.forget(near[old])  # noise for good: no later lookup finds them
     near = near[~old]
-    seen = other_poses(
-        store.p[ids], store.q[ids], store.pose[ids], store.p[near], store.q[near], store.pose[near], config.merge
-    )
+    cp, cq = store.p[near], store.q[near]
+    seen = other_poses(p, q, pose, cp, cq, store.pose[near], config.merge)
     features = {**{name: column[ids] for name, column in store.features.items()}, "lsl_other_poses": seen}
     read = {
         source.feature
@@ -146,14 +146,13 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
         features |= _ray_features(store, ids, poses, params)
     if "sonar_forward" in read:
         sonar = SonarForwardParams()
-        free = free_ends(store.p[ids], store.q[ids], store.p[near], store.q[near], sonar.end_clearance)
-        free &= stripe_edges(store.p[ids], store.q[ids], store.pose[ids], poses, params)
-        features["sonar_forward"] = sonar_forward(store.p[ids], store.q[ids], free, poses, sonar)
-    ev = noise_evidence(store.p[ids], store.q[ids], space, config, features)
+        free = free_ends(p, q, cp, cq, sonar.end_clearance) & stripe_edges(p, q, pose, poses, params)
+        features["sonar_forward"] = sonar_forward(p, q, free, poses, sonar)
+    ev = noise_evidence(p, q, space, config, features)
     if rays and any(s.all_returns for s in poses) and (ev.eliminated & ~store.eliminated[ids]).any():
         store.write(ids, eliminated=ev.eliminated)  # a second look, through what this judgement found noise
         features |= _ray_features(store, ids, poses, params)
-        ev = noise_evidence(store.p[ids], store.q[ids], space, config, features)
+        ev = noise_evidence(p, q, space, config, features)
     keep_features(bm, ids, {name: features[name] for name in SENSED_FEATURES if name in features})
     store.write(ids, relation=ev.relation, mass=ev.fused, conflict=ev.conflict, eliminated=ev.eliminated)
 
@@ -172,23 +171,25 @@ def _ray_features(
 ) -> dict[str, NDArray[np.str_]]:
     """``contour_free`` and ``lsl_persistence`` of the segments ``ids``, the rays that went on beyond points on
     each pose's segments now judged noise counted as going through what lies behind them."""
-    beyond = []
-    for s in poses:
-        rows = np.flatnonzero(store.pose == s.pose_index) if s.all_returns else np.zeros(0, dtype=np.intp)
-        noise, kept = rows[store.eliminated[rows]], rows[~store.eliminated[rows]]
-        beyond.append(went_on(s, (store.p[noise], store.q[noise]), (store.p[kept], store.q[kept]), params))
+    beyond = None  # no ray went on, unless a pose's sensor reports every surface a ray lit
+    if any(s.all_returns for s in poses):
+        beyond = []
+        for s in poses:
+            rows = store.seen_from(s.pose_index) if s.all_returns else np.zeros(0, dtype=np.intp)
+            noise, kept = rows[store.eliminated[rows]], rows[~store.eliminated[rows]]
+            beyond.append(went_on(s, (store.p[noise], store.q[noise]), (store.p[kept], store.q[kept]), params))
     return ray_features(ray_tally(store.p[ids], store.q[ids], store.pose[ids], poses, params, beyond), params)
 
 
-def _near_each(store: SegmentStore, ids: NDArray[np.intp], reach: float) -> NDArray[np.intp]:
-    """The stored segments whose boxes meet the box of one of the segments ``ids`` grown by ``reach``, sorted."""
-    lo = np.minimum(store.p[ids], store.q[ids]) - reach
-    hi = np.maximum(store.p[ids], store.q[ids]) + reach
+def _near_each(store: SegmentStore, p: NDArray[np.float64], q: NDArray[np.float64], reach: float) -> NDArray[np.intp]:
+    """The stored segments whose boxes meet the box of one of the segments p-q grown by ``reach``, sorted."""
+    lo = np.minimum(p, q) - reach
+    hi = np.maximum(p, q) + reach
     found = store.near((*lo.min(axis=0), *hi.max(axis=0)))
     flo, fhi = np.minimum(store.p[found], store.q[found]), np.maximum(store.p[found], store.q[found])
-    tree = shapely.STRtree(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]))
-    meets, _ = tree.query(shapely.box(flo[:, 0], flo[:, 1], fhi[:, 0], fhi[:, 1]))
-    return found[np.unique(meets)]
+    meets = (flo[:, None, 0] <= hi[:, 0]) & (fhi[:, None, 0] >= lo[:, 0])  # (found, ids), edges touching
+    meets &= (flo[:, None, 1] <= hi[:, 1]) & (fhi[:, None, 1] >= lo[:, 1])
+    return found[meets.any(axis=1)]
 
 
 def other_poses(
@@ -214,13 +215,15 @@ def other_poses(
     [1]
     """
     n = len(p)
-    poses = np.unique(pose)
-    if poses.size == 1:  # then a candidate from that pose counts for none of the segments
-        keep = cpose != poses[0]
+    if n and (pose == pose[0]).all():  # then a candidate from that pose counts for none of the segments
+        keep = cpose != pose[0]
         cp, cq, cpose = cp[keep], cq[keep], cpose[keep]
     if not n or not len(cp):
         return np.zeros(n, dtype=np.intp)
     i, j, _ = related_pairs(p, q, params, others=(cp, cq))
     other = cpose[j] != pose[i]
-    seen = np.unique(np.column_stack([i[other], cpose[j[other]]]), axis=0)
-    return np.bincount(seen[:, 0], minlength=n).astype(np.intp)
+    i, seen = i[other], cpose[j[other]]
+    if not len(i):
+        return np.zeros(n, dtype=np.intp)
+    span = seen.max() - seen.min() + 1
+    return np.bincount(np.unique(i * span + seen - seen.min()) // span, minlength=n).astype(np.intp)

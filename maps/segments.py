@@ -92,6 +92,7 @@ class SegmentStore:
         self._features: dict[str, NDArray[Any]] = {}
         self._index: SpatialIndex | None = None  # the rows not absorbed; made on first use, then kept
         self._journal: list[tuple[NDArray[np.intp], dict[str, NDArray[Any]]]] | None = None  # see checkpoint
+        self._by_pose: dict[int, list[NDArray[np.intp]]] | None = None  # the rows of each pose; made on first use
 
     @classmethod
     def empty(cls, frame: Frame) -> SegmentStore:
@@ -180,6 +181,8 @@ class SegmentStore:
         if self._index is not None:
             for i, box in zip(ids.tolist(), _boxes(self.p[ids], self.q[ids]).tolist(), strict=True):
                 self._index.insert(str(i), box)
+        if self._by_pose is not None:
+            _file_by_pose(self._by_pose, ids, self.pose[ids])
         return ids
 
     def consolidate(self, members: ArrayLike, p: ArrayLike, q: ArrayLike, line: str, seen: int) -> int:
@@ -225,6 +228,7 @@ class SegmentStore:
         self._n = checkpoint.rows
         self._journal = None
         self._index = None
+        self._by_pose = None
 
     def release(self, checkpoint: Checkpoint) -> None:
         """Keep what was written since the ``checkpoint``: writes are no longer recorded for it."""
@@ -240,7 +244,26 @@ class SegmentStore:
         if self._index is None:
             live = np.flatnonzero(self.role != "absorbed")
             self._index = SpatialIndex.from_boxes([str(i) for i in live.tolist()], _boxes(self.p[live], self.q[live]))
-        return np.array(sorted(map(int, self._index.query(bounds))), dtype=np.intp)
+        keys = self._index.query(bounds)
+        return np.sort(np.fromiter(map(int, keys), dtype=np.intp, count=len(keys)))
+
+    def seen_from(self, pose: int) -> NDArray[np.intp]:
+        """Ids of the segments the pose ``pose`` saw (absorbed ones too), sorted.
+
+        An index of the rows by pose: it costs the rows of the pose, at any size of the store.
+
+        >>> store = SegmentStore.empty(Frame(["real", "noise"]))
+        >>> ids = store.append([[0, 0], [1, 0], [2, 0]], [[1, 0], [2, 0], [3, 0]], [3, 5, 3], ["", "", ""])
+        >>> store.seen_from(3).tolist(), store.seen_from(4).tolist()
+        ([0, 2], [])
+        """
+        if self._by_pose is None:
+            self._by_pose = {}
+            _file_by_pose(self._by_pose, np.arange(self._n), self.pose)
+        rows = self._by_pose.get(int(pose), [])
+        if len(rows) > 1:
+            rows[:] = [np.concatenate(rows)]
+        return rows[0] if rows else np.zeros(0, dtype=np.intp)
 
     def forget(self, rows: ArrayLike) -> None:
         """Leave the rows out of :meth:`near` until the index is made anew (after a :meth:`restore` or a load):
@@ -347,3 +370,11 @@ def _read_only(view: NDArray[Any]) -> NDArray[Any]:
 def _boxes(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
     """(N, 4) bounding boxes of segments p-q."""
     return np.hstack([np.minimum(p, q), np.maximum(p, q)]).reshape(-1, 4)
+
+
+def _file_by_pose(by_pose: dict[int, list[NDArray[np.intp]]], ids: NDArray[np.intp], pose: NDArray[np.intp]) -> None:
+    """File the rows ``ids`` (ascending, after every row filed before), seen from ``pose``, under their poses."""
+    order = np.argsort(pose, kind="stable")
+    values, first = np.unique(pose[order], return_index=True)
+    for value, rows in zip(values.tolist(), np.split(ids[order], first[1:]), strict=True):
+        by_pose.setdefault(value, []).append(rows)

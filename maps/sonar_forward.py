@@ -31,7 +31,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import shapely
 from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed
@@ -100,23 +99,33 @@ def free_ends(
     >>> free_ends(p, q, p, q, 0.05).tolist()
     [[True, False], [False, True], [True, True]]
     """
-    out = np.ones((len(p), 2), dtype=bool)
-    if not len(op) or not len(p):
+    n = len(p)
+    out = np.ones((n, 2), dtype=bool)
+    if not len(op) or not n:
         return out
-    tree = shapely.STRtree(shapely.linestrings(np.stack([op, oq], axis=1)))
-    e = q - p
-    for k, point in enumerate((p, q)):
-        # pairs (end, other segment) within the clearance: the only ones that can hold the end
-        i, j = tree.query(shapely.box(*(point - clearance).T, *(point + clearance).T))  # boxes meeting
-        close = point_segment_distances(point[i], op[j], oq[j]) <= clearance
-        i, j = i[close], j[close]
-        same = (np.abs(op[j] - p[i]).sum(axis=1) < 1e-12) & (np.abs(oq[j] - q[i]).sum(axis=1) < 1e-12)
-        i, j = i[~same], j[~same]
-        d = oq[j] - op[j]
-        cos = np.abs((e[i] * d).sum(axis=1)) / np.maximum(np.hypot(*e[i].T) * np.hypot(*d.T), 1e-300)
-        corner = np.minimum(np.hypot(*(point[i] - op[j]).T), np.hypot(*(point[i] - oq[j]).T)) <= clearance
-        held = (cos >= np.cos(np.radians(angle_deg))) | corner
-        out[np.unique(i[held]), k] = False
+    point = np.concatenate([p, q])  # every end: the ends p, then the ends q
+    # pairs (end, other segment) within the clearance: the only ones that can hold the end
+    by_x = np.argsort(point[:, 0], kind="stable")
+    lo, hi = point[by_x] - clearance, point[by_x] + clearance  # the ends' boxes, sorted by both lo[:, 0] and hi[:, 0]
+    olo, ohi = np.minimum(op, oq), np.maximum(op, oq)
+    first = np.searchsorted(hi[:, 0], olo[:, 0], side="left")  # each other segment's ends whose boxes meet its box
+    count = np.maximum(np.searchsorted(lo[:, 0], ohi[:, 0], side="right") - first, 0)  # in x, edges touching
+    j = np.repeat(np.arange(len(op)), count)
+    at = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())
+    meets = (lo[at, 1] <= ohi[j, 1]) & (hi[at, 1] >= olo[j, 1])
+    end, j = by_x[at[meets]], j[meets]
+    # rows by np.take: x[rows] of a 2-D x is much slower
+    away = point_segment_distances(*(np.take(x, rows, axis=0) for x, rows in ((point, end), (op, j), (oq, j))))
+    close = away <= clearance
+    end, j = end[close], j[close]
+    i = end % n  # the segment of the end
+    xy, pi, qi, pj, qj = (np.take(x, rows, axis=0) for x, rows in ((point, end), (p, i), (q, i), (op, j), (oq, j)))
+    same = (np.abs(pj - pi).sum(axis=1) < 1e-12) & (np.abs(qj - qi).sum(axis=1) < 1e-12)
+    e, d = qi - pi, qj - pj
+    cos = np.abs((e * d).sum(axis=1)) / np.maximum(np.hypot(*e.T) * np.hypot(*d.T), 1e-300)
+    corner = np.minimum(np.hypot(*(xy - pj).T), np.hypot(*(xy - qj).T)) <= clearance
+    held = ((cos >= np.cos(np.radians(angle_deg))) | corner) & ~same
+    out[i[held], end[held] // n] = False
     return out
 
 

@@ -12,7 +12,16 @@ from evmap.maps import BeliefMap, new_map
 from evmap.maps.map_file import map_data, read_map
 from evmap.maps.map_format import MapFileError
 from evmap.maps.observation import observe
-from evmap.maps.sensed import SENSED_KEY, remember, sensed, sensed_near
+from evmap.maps.sensed import (
+    SENSED_KEY,
+    features_checkpoint,
+    forget,
+    keep_features,
+    kept_features,
+    remember,
+    sensed,
+    sensed_near,
+)
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import load_scenario
 from evmap.sources.sim.world import World
@@ -82,3 +91,24 @@ def test_a_segment_is_judged_by_the_latest_poses_that_reach_it(config):
     assert [s.pose_index for s in sensed_near(bm, box, 0.0, latest=10)] == [0, 1, 3, 4]
     assert [s.pose_index for s in sensed_near(bm, box, 0.0, latest=2)] == [3, 4]
     assert [s.pose_index for s in sensed_near(bm, box, 40.0, latest=10)] == [0, 1, 2, 3, 4]
+
+
+def test_kept_features_follow_the_store_as_it_grows_and_go_back_with_a_checkpoint(config):
+    """``keep_features`` and ``kept_features``: no evidence for rows never judged, as many rows as the store."""
+    bm = new_map(config)
+    store = bm.segments
+    expected = []
+    for k in range(40):  # a store growing a few rows at a time, each update judging some rows again
+        store.append([[0.0, 0.0]] * 3, [[1.0, 0.0]] * 3, [k] * 3, [""] * 3)
+        ids = np.arange(max(0, len(store) - 5), len(store) - 1)
+        keep_features(bm, ids, {"sonar_forward": np.full(len(ids), f"c{k}")})
+        expected[len(expected) :] = ["silent"] * (len(store) - len(expected))
+        expected[ids[0] : ids[-1] + 1] = [f"c{k}"] * len(ids)
+    checkpoint = features_checkpoint(bm)
+    assert kept_features(bm, np.arange(len(store) + 2))["sonar_forward"].tolist() == [*expected, "silent", "silent"]
+    assert kept_features(bm, np.array([1]))["contour_free"].tolist() == ["clear"]
+    assert checkpoint[0] == len(store)
+    store.append([[0.0, 0.0]], [[1.0, 0.0]], [40], [""])
+    keep_features(bm, np.array([0, len(store) - 1]), {"sonar_forward": np.array(["x", "y"])})
+    forget(bm, 40, checkpoint)
+    assert kept_features(bm, np.arange(len(store)))["sonar_forward"].tolist() == [*expected, "silent"]
