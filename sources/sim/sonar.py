@@ -268,6 +268,7 @@ def _double_echoes(
     line from the image through A, no further than that from the image.
     """
     mir = np.flatnonzero(near.reflective & visible_segments(near, s))
+    mir = mir[np.hypot(*(near.q[mir] - near.p[mir]).T) > 0]  # a wall of no length mirrors nothing
     pa, qa = near.p[mir], near.q[mir]
     d = qa - pa
     normal = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.linalg.norm(d, axis=1, keepdims=True)
