@@ -24,7 +24,7 @@ def test_a_signal_during_a_run_ends_it_cleanly(tmp_path, signum, status, line):
     process.wait(timeout=60)
     if process.returncode == 0:  # the run had already finished when the signal came: nothing to check
         pytest.skip("the run finished before the signal")
-    assert process.returncode == status
+    assert process.returncode == status, rest  # what it printed, if it ended otherwise
     assert rest.strip().splitlines()[-1] == f"evmap: {line}" and "Traceback" not in rest
     assert not out.exists() and list(tmp_path.iterdir()) == []
 
