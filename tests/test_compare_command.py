@@ -96,7 +96,8 @@ def test_force_refuses_a_directory_evmap_did_not_make(capsys, tmp_path, written)
     assert "results.csv" in capsys.readouterr().err and (out / "results.csv").read_text() == "mine"
 
 
-def test_ctrl_c_stops_the_cluster_cleanly_with_one_line_and_exit_130(tmp_path):
+@pytest.mark.parametrize("after", [4, 8])  # while the workers start, and while they compute
+def test_ctrl_c_stops_the_cluster_cleanly_with_one_line_and_exit_130(tmp_path, after):
     out = tmp_path / "out"
     script = Path(sys.executable).parent / "evmap"
     proc = subprocess.Popen(
@@ -105,7 +106,7 @@ def test_ctrl_c_stops_the_cluster_cleanly_with_one_line_and_exit_130(tmp_path):
         text=True,
         start_new_session=True,  # its own process group, as a terminal's foreground job
     )
-    time.sleep(8)
+    time.sleep(after)
     os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C does: the whole group
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err

@@ -26,7 +26,8 @@ import os
 import signal
 import subprocess
 import sys
-from collections.abc import Iterator, Sequence
+import threading
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from subprocess import DEVNULL
 from typing import Any
@@ -232,12 +233,13 @@ def iter_results(
                 bar.update(1)
             return
         bar.set_postfix_str("starting workers", refresh=True)
-        with _executor(scheduler, workers) as (pool, wait, slots):
+        with _interrupts_between_waits() as interrupted, _executor(scheduler, workers) as (pool, wait, slots):
             tasks = batches(worlds, slots)
             pending: dict[Any, int] = {}
             done: dict[int, list[WorldResult]] = {}
             following = 0
             while True:
+                interrupted()
                 while len(pending) < slots * MAX_IN_FLIGHT_PER_WORKER and (task := next(tasks, None)) is not None:
                     start, stop = task
                     pending[pool.submit(compare_batch, start, stop, seed, rules, names, params)] = start
@@ -245,6 +247,7 @@ def iter_results(
                     return
                 for future in wait(list(pending)):
                     done[pending.pop(future)] = future.result()
+                interrupted()
                 while following in done:
                     bar.set_postfix_str("", refresh=False)
                     batch = done.pop(following)
@@ -279,6 +282,10 @@ def run_comparison(rules: Sequence[str], worlds: int, seed: int, **options: Any)
 WORKER_DEATH_TIMEOUT = 20
 """Seconds a local worker outlives a scheduler it cannot reach (this process killed)."""
 
+WORKER_STOP_TIMEOUT = 3
+"""Seconds a local worker is given to stop when told to (SIGTERM), before it is killed: one busy with a world
+does not stop before that world is done, and its results are no longer wanted."""
+
 
 def _ignore_sigint() -> None:
     """In a worker of the ``processes`` pool: leave Ctrl-C to the main process, which shuts the pool down."""
@@ -297,6 +304,31 @@ def _wait_dask(futures: list[Any]) -> set[Any]:
         return set(wait(futures, timeout=0.5, return_when="FIRST_COMPLETED").done)
     except TimeoutError:
         return set()
+
+
+@contextmanager
+def _interrupts_between_waits() -> Iterator[Callable[[], None]]:
+    """Ctrl-C (SIGINT) held back while the executor starts, runs and shuts down, and raised as
+    KeyboardInterrupt only where the check it yields is called: between two waits (half a second apart).
+
+    A KeyboardInterrupt raised inside Dask's blocking calls (which wait on its event loop's thread) could leave
+    the client or the cluster unable to close: the command hung after Ctrl-C while its workers started. Off the
+    main thread, where no signal handler can be set, nothing is held back.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield lambda: None
+        return
+    caught: list[int] = []
+
+    def interrupted() -> None:
+        if caught:
+            raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield interrupted
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @contextmanager
@@ -378,7 +410,7 @@ def _local_cluster(n: int) -> Iterator[Any]:
             proc.terminate()
         for proc in procs:
             try:
-                proc.wait(timeout=10)
+                proc.wait(timeout=WORKER_STOP_TIMEOUT)
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
