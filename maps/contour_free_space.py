@@ -52,6 +52,7 @@ from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed
 from evmap.sources.geometry import crossings, point_segment_distances
+from evmap.sources.params import LslParams
 
 __all__ = ["RayParams", "RayTally", "ray_features", "ray_tally", "stripe_edges", "went_on"]
 
@@ -71,6 +72,11 @@ class RayParams:
     seen_cover: float = 0.6  # the share of another pose's rays crossing the segment that end on it, to have seen it
     edge_step: float = 0.05  # an end is an edge when the next ray beyond it returns this much farther (3 stds more)
     edge_window_deg: float = 1.0  # the next ray beyond an end is looked for this far beyond it
+
+    @classmethod
+    def of_stripe(cls, lsl: LslParams) -> RayParams:
+        """The tolerances for a contour sensor: its range noise and range, the rest the defaults."""
+        return cls(range_noise=lsl.range_noise, max_range=lsl.max_range)
 
 
 @dataclass(frozen=True, eq=False)

@@ -30,7 +30,16 @@ if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
     from evmap.maps.segments import SegmentStore
 
-__all__ = ["COMPUTED", "LATEST_POSES", "NoiseEvidence", "judge", "noise_evidence", "other_poses", "settled"]
+__all__ = [
+    "COMPUTED",
+    "LATEST_POSES",
+    "NoiseEvidence",
+    "judge",
+    "noise_evidence",
+    "other_poses",
+    "settled",
+    "unsettled",
+]
 
 COMPUTED = ("relation", "length", "lsl_other_poses", "contour_free", "lsl_persistence", "sonar_forward")
 """The features the pipeline computes for the noise-elimination sources (an observation brings any others)."""
@@ -126,10 +135,7 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
     ends = np.concatenate([p, q])
     lo, hi = ends.min(axis=0), ends.max(axis=0)
     space = bm.open_space_parts_near((*lo, *hi))
-    near = _near_each(store, p, q, config.merge.distance + config.merge.gap)
-    old = settled(bm, near)
-    store.forget(near[old])  # noise for good: no later lookup finds them
-    near = near[~old]
+    near = unsettled(bm, _near_each(store, p, q, config.merge.distance + config.merge.gap))
     cp, cq = store.p[near], store.q[near]
     seen = other_poses(p, q, pose, cp, cq, store.pose[near], config.merge)
     features = {**{name: column[ids] for name, column in store.features.items()}, "lsl_other_poses": seen}
@@ -139,8 +145,7 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
         for source in config.stage_sources(stage)
     }
     poses = sensed_near(bm, (*lo, *hi), config.sensors.lsl.max_range, LATEST_POSES)
-    lsl = config.sensors.lsl
-    params = RayParams(range_noise=lsl.range_noise, max_range=lsl.max_range)
+    params = RayParams.of_stripe(config.sensors.lsl)
     rays = read & {"contour_free", "lsl_persistence"}
     if rays:
         features |= _ray_features(store, ids, poses, params)
@@ -164,6 +169,14 @@ def settled(bm: BeliefMap, rows: NDArray[np.intp]) -> NDArray[np.bool_]:
     again and again does not pile up its phantoms in every lookup."""
     store = bm.segments
     return store.eliminated[rows] & ~np.isin(store.pose[rows], bm.poses[-LATEST_POSES:])
+
+
+def unsettled(bm: BeliefMap, rows: NDArray[np.intp]) -> NDArray[np.intp]:
+    """The ``rows`` that are not :func:`settled`; the settled ones the segment store's index forgets (noise for
+    good: no later lookup finds them)."""
+    old = settled(bm, rows)
+    bm.segments.forget(rows[old])
+    return rows[~old]
 
 
 def _ray_features(

@@ -36,7 +36,7 @@ import shapely
 from numpy.typing import NDArray
 
 from evmap.maps.contour_free_space import RayParams, ray_tally
-from evmap.maps.noise import COMPUTED, judge, settled
+from evmap.maps.noise import COMPUTED, judge, unsettled
 from evmap.maps.observation import Observation
 from evmap.maps.rebuild import rebuild, refresh_points
 from evmap.maps.reinforcement import reinforce
@@ -171,14 +171,11 @@ def touched_segments(
     found = np.unique(np.concatenate([new, *(store.near(tuple(box)) for box in grown.tolist())]))
     if sensed is not None and len(sensed.bearing):
         reach = min(sensed.reach, config.sensors.lsl.max_range)
-        seen = np.setdiff1d(store.near((*(sensed.origin - reach), *(sensed.origin + reach))), found)
-        seen = seen[~settled(bm, seen)]
-        params = RayParams(range_noise=config.sensors.lsl.range_noise, max_range=config.sensors.lsl.max_range)
+        seen = unsettled(bm, np.setdiff1d(store.near((*(sensed.origin - reach), *(sensed.origin + reach))), found))
+        params = RayParams.of_stripe(config.sensors.lsl)
         passes = ray_tally(store.p[seen], store.q[seen], store.pose[seen], [sensed], params).passes
         found = np.union1d(found, seen[passes >= params.min_passes])
-    old = settled(bm, found)
-    store.forget(found[old])  # noise for good: no later lookup finds them
-    return found[~old]
+    return unsettled(bm, found)
 
 
 def check_observation(bm: BeliefMap, obs: Observation, config: Config) -> None:

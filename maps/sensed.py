@@ -311,5 +311,6 @@ def kept_features(bm: BeliefMap, ids: NDArray[np.intp]) -> dict[str, NDArray[np.
     for name, none in SENSED_FEATURES.items():
         column = kept.columns.get(name, np.zeros(0, dtype="<U12"))
         known = ids < min(len(column), kept.rows)
-        out[name] = np.where(known, column[np.where(known, ids, 0)] if len(column) else none, none)
+        out[name] = np.full(ids.shape, none, dtype="<U12")
+        out[name][known] = column[ids[known]]
     return out
