@@ -140,10 +140,22 @@ def _is_json(value: Any) -> bool:
     if kind is float:
         return math.isfinite(value)
     if kind is list or kind is tuple:
+        kinds = set(map(type, value))
+        if kinds <= _EXACT:  # a list of scalars (a line's members): one pass in C
+            return True
+        if kinds <= _NUMBERS:  # numbers (a fit, a position): finite
+            return all(map(math.isfinite, value))
         return all(map(_is_json, value))
     if kind is dict:
         return all(type(k) is str for k in value) and all(map(_is_json, value.values()))
     return False
+
+
+_EXACT = frozenset({bool, int, str, type(None)})
+"""The scalar types JSON carries exactly, whatever their value."""
+
+_NUMBERS = frozenset({bool, int, float})
+"""The scalar types :func:`math.isfinite` takes."""
 
 
 def json_problem(value: Any, path: str) -> str | None:

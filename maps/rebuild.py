@@ -115,14 +115,22 @@ def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> No
     g = bm.graph
     nodes = {n for lid in line_ids if lid in bm for n in bm.ends(lid)}
     real = bm.frame.mask("real")
+    belief: dict[str, float] = {}  # line id -> Bel(real), each computed once
+
+    def weakness(line: dict[str, Any]) -> float:
+        if line["id"] not in belief:
+            belief[line["id"]] = line["mass"].belief(real)
+        return belief[line["id"]]
+
     for n in sorted(nodes):
         d = g.nodes[n]
-        masses = [e["mass"] for _, _, e in g.edges(n, data=True)]
-        weakest = min(masses, key=lambda m: m.belief(real)) if masses else bm.vacuous()
-        if d["kind"] in SURFACE_KINDS:
-            mass = weakest if d["kind"] == "endpoint" else with_running(weakest, bm.running_mass(n), config.rule)
-            if not _same(d, {"mass": mass}):
-                bm.set_attrs(n, mass=mass)
+        if d["kind"] not in SURFACE_KINDS:
+            continue
+        lines = [e for _, _, e in g.edges(n, data=True)]
+        weakest = (lines[0] if len(lines) == 1 else min(lines, key=weakness))["mass"] if lines else bm.vacuous()
+        mass = weakest if d["kind"] == "endpoint" else with_running(weakest, bm.running_mass(n), config.rule)
+        if not _same(d, {"mass": mass}):
+            bm.set_attrs(n, mass=mass)
 
 
 def _affected_points(
@@ -203,7 +211,7 @@ def _same(data: dict[str, Any], attrs: dict[str, Any]) -> bool:
     """Whether setting ``attrs`` would leave the object's ``data`` as it is (masses compared by value)."""
     return all(
         (data[k] is v or np.array_equal(data[k].dense(), v.dense())) if k == "mass" else data.get(k) == v
-        for k, v in attrs.items()
+        for k, v in sorted(attrs.items(), key=lambda kv: kv[0] == "mass")  # the mass last: the dearest to compare
     )
 
 
