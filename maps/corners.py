@@ -106,16 +106,11 @@ def find_corners(
     cos_max = np.cos(np.radians(params.min_angle_deg)) + _EPS
     link = (l1 != l2) & (np.abs(np.sum(u[l1] * u[l2], axis=1)) <= cos_max)
     e1, e2 = e1[link], e2[link]
-    comp = component_labels(2 * n, e1, e2)
-    member = np.flatnonzero(np.bincount(comp)[comp] > 1)
-    # At most one end of a line per corner: keep the one nearest the centroid.
-    groups, cm = np.unique(comp[member], return_inverse=True)
-    centroid = _group_mean(ends[member], cm, groups.size)
-    dist = np.hypot(*(ends[member] - centroid[cm]).T)
-    order = np.lexsort((dist, member // 2, cm))
-    keep = np.ones(order.size, dtype=bool)  # the first end of each (corner, line)
-    keep[1:] = (np.diff(cm[order]) != 0) | (np.diff(member[order] // 2) != 0)
-    member = np.sort(member[order[keep]])
+    member, comp = _clusters(ends, e1, e2)
+    while params.drawn_apart and (folded := _folded(ends, member, comp, u, cos_max)).size:
+        kept = ~(np.isin(e1, folded) | np.isin(e2, folded))
+        e1, e2 = e1[kept], e2[kept]
+        member, comp = _clusters(ends, e1, e2)
     # Corners numbered by their smallest end.
     _, first, corner = np.unique(comp[member], return_index=True, return_inverse=True)
     corner = np.argsort(np.argsort(first))[corner]
@@ -139,6 +134,51 @@ def find_corners(
         free=np.stack([free // 2, free % 2], axis=1),
         shape=_shapes(snapped.reshape(-1, 2), member, corner, xy, viewpoint),
     )
+
+
+def _clusters(
+    ends: NDArray[np.float64], e1: NDArray[np.intp], e2: NDArray[np.intp]
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The ends that meet at corners (sorted) and the cluster of every end: the connected sets of linked ends
+    ``e1``-``e2``, at most one end of a line in each (the one nearest the cluster's centroid)."""
+    comp = component_labels(len(ends), e1, e2)
+    member = np.flatnonzero(np.bincount(comp)[comp] > 1)
+    groups, cm = np.unique(comp[member], return_inverse=True)
+    centroid = _group_mean(ends[member], cm, groups.size)
+    dist = np.hypot(*(ends[member] - centroid[cm]).T)
+    order = np.lexsort((dist, member // 2, cm))
+    keep = np.ones(order.size, dtype=bool)  # the first end of each (corner, line)
+    keep[1:] = (np.diff(cm[order]) != 0) | (np.diff(member[order] // 2) != 0)
+    return np.sort(member[order[keep]]), comp
+
+
+def _folded(
+    ends: NDArray[np.float64], member: NDArray[np.intp], comp: NDArray[np.intp], u: NDArray[np.float64], cos_max: float
+) -> NDArray[np.intp]:
+    """One end of each corner whose lines, drawn from it (at the centroid of its ``member`` ends) to their other
+    ends, come within the corner angle of parallel (``cos_max``): the end of the line the corner turns most
+    from its direction ``u``. A line drawn to no length turns most."""
+    _, corner = np.unique(comp[member], return_inverse=True)
+    xy = _group_mean(ends[member], corner, corner.max(initial=-1) + 1)
+    drawn = ends[member ^ 1] - xy[corner]
+    length = np.hypot(*drawn.T)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = drawn / length[:, None]
+    turn = np.where(length > 0, 1 - np.abs(np.sum(w * u[member // 2], axis=1)), np.inf)
+    order = np.argsort(corner, kind="stable")  # a corner's ends in a row
+    bad = np.zeros(len(member), dtype=bool)
+    for step in range(1, len(order)):
+        a, b = order[:-step], order[step:]
+        same = corner[a] == corner[b]
+        if not same.any():
+            break
+        close = same & ~(np.abs(np.sum(w[a] * w[b], axis=1)) <= cos_max)  # a line drawn to no length is close
+        bad[a[close]] = bad[b[close]] = True
+    folded = np.flatnonzero(bad)
+    first = np.lexsort((-turn[folded], corner[folded]))
+    take = np.ones(len(first), dtype=bool)
+    take[1:] = np.diff(corner[folded][first]) != 0
+    return member[folded[first[take]]]
 
 
 def _group_mean(x: NDArray[np.float64], g: NDArray[np.intp], k: int) -> NDArray[np.float64]:

@@ -106,7 +106,7 @@ def refits(
         if max(math.dist(p, a), math.dist(q, b)) <= move and cos >= cos_tol:
             fits[lid], lines_of[lid] = np.array([p, q]), k
     if not fits:
-        return {}, fits, NearEnds([], np.zeros((0, 2)), np.zeros((0, 2)))
+        return {}, fits, NearEnds([], np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2)))
     ends = np.concatenate(list(fits.values()))
     points = surface_points_near(bm, ends, 3 * config.corners.distance + move)
     neighbours = [(d["id"], n) for n in points for _, _, d in g.edges(n, data=True)]
@@ -120,7 +120,8 @@ def refits(
         for lid, fit in fits.items():
             lines[rows.get(lid, [])] = fit
         d = lines[:, 1] - lines[:, 0]
-        near = NearEnds(neighbours, lines[np.arange(len(end)), end], d / np.hypot(*d.T)[:, None])
+        at = np.arange(len(end))
+        near = NearEnds(neighbours, lines[at, end], lines[at, 1 - end], d / np.hypot(*d.T)[:, None])
         moves = end_moves(bm, fits, near, config)
         failed = {lid for lid, move in moves.items() if move is None}
         if not failed:
@@ -131,11 +132,12 @@ def refits(
 
 @dataclass(frozen=True)
 class NearEnds:
-    """The (line, point) pairs near refitted lines, the fit end of each line at its point, each line's unit
-    direction (refitted lines with their new fits)."""
+    """The (line, point) pairs near refitted lines, the fit end of each line at its point and its other fit
+    end, each line's unit direction (refitted lines with their new fits)."""
 
     pairs: list[tuple[str, str]]
     ends: NDArray[np.float64]
+    far: NDArray[np.float64]
     u: NDArray[np.float64]
 
 
@@ -176,7 +178,9 @@ def end_moves(
                 continue
             if kind == "corner" and meets and meets <= set(at.get(node, ())):
                 if node not in corner_at:
-                    corner_at[node] = _corner_place(near, at[node], g.degree(node), reach, cos_max)
+                    corner_at[node] = _corner_place(
+                        near, at[node], g.degree(node), reach, cos_max, config.corners.drawn_apart
+                    )
                 if corner_at[node] is not None:
                     found.append((node, corner_at[node]))
                     continue
@@ -187,11 +191,12 @@ def end_moves(
 
 
 def _corner_place(
-    near: NearEnds, rows: list[int], degree: int, reach: float, cos_max: float
+    near: NearEnds, rows: list[int], degree: int, reach: float, cos_max: float, drawn_apart: bool
 ) -> tuple[float, float] | None:
     """The centroid of the ends ``rows`` of ``near`` if they are the ends of all ``degree`` lines of their
     corner, one each, still one single-linkage cluster as corners link ends (within ``reach``, lines at least
-    the corner angle from parallel); else None (the corner would split: it is found anew)."""
+    the corner angle from parallel) and, if ``drawn_apart``, drawn from there still that far from parallel
+    (:class:`~evmap.sources.params.CornerParams`); else None (the corner would change: it is found anew)."""
     if len(rows) != degree or len({near.pairs[i][0] for i in rows}) != degree:
         return None
     xy, u = near.ends[rows].tolist(), near.u[rows].tolist()  # a handful of ends: plain floats
@@ -205,4 +210,17 @@ def _corner_place(
                 frontier.append(b)
     if len(reached) < degree:
         return None
-    return sum(x for x, _ in xy) / degree, sum(y for _, y in xy) / degree
+    place = sum(x for x, _ in xy) / degree, sum(y for _, y in xy) / degree
+    if drawn_apart and _drawn_close(place, near.far[rows].tolist(), cos_max):
+        return None
+    return place
+
+
+def _drawn_close(place: tuple[float, float], far: list[list[float]], cos_max: float) -> bool:
+    """Whether two lines drawn from ``place`` to their ``far`` ends come within the corner angle of parallel
+    (``cos_max``), or one is drawn to no length."""
+    drawn = [(x - place[0], y - place[1]) for x, y in far]
+    if not all(math.hypot(*d) > 0 for d in drawn):
+        return True
+    w = [(dx / math.hypot(dx, dy), dy / math.hypot(dx, dy)) for dx, dy in drawn]
+    return any(abs(a[0] * b[0] + a[1] * b[1]) > cos_max for i, a in enumerate(w) for b in w[i + 1 :])

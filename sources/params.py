@@ -136,6 +136,11 @@ class CornerParams(_Params):
 
     distance: float = Field(0.05, ge=0, le=1, description="end points within this meet at their centroid (m)")
     min_angle_deg: float = Field(10.0, ge=0, le=90, description="lines closer than this to parallel make no corner")
+    drawn_apart: bool = Field(
+        False,
+        description="lines drawn from their corner must stay min_angle_deg from parallel, else the end of the "
+        "one it turns most is left free",
+    )
 
 
 class MatchParams(_Params):

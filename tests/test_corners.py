@@ -120,6 +120,30 @@ def test_a_line_shorter_than_the_tolerance_brings_one_end_to_a_corner():
     assert not np.array_equal(c.p[1], c.q[1])
 
 
+def test_a_piece_the_corner_would_fold_onto_a_wall_is_left_free_when_lines_are_drawn_apart():
+    """A 7.6 cm piece 11 deg off a wall, its end 4.5 cm from the wall's: the paper's rule makes them a corner, at
+    whose midpoint the piece would be drawn 8.7 deg from the wall, folded onto it; drawn apart, it stays free."""
+    p, q = np.array([[0.0, 0.0], [0.045, 0.0]]), np.array([[2.0, 0.0], [0.12, 0.015]])
+    paper = find_corners(p, q)
+    assert paper.ends[0].tolist() == [[0, 0], [1, 0]]
+    drawn = paper.q[1] - paper.p[1]
+    assert np.degrees(np.arctan2(drawn[1], drawn[0])) < 10
+    apart = find_corners(p, q, CornerParams(drawn_apart=True))
+    assert apart.xy.shape == (0, 2) and apart.free.tolist() == [[0, 0], [0, 1], [1, 0], [1, 1]]
+    np.testing.assert_array_equal([apart.p, apart.q], [p, q])
+
+
+def test_a_folded_piece_leaves_the_corner_of_two_walls_as_it_is():
+    """Two walls meeting at the origin and the folded piece of the test above: the piece is the line the corner
+    turns most, so it leaves; the walls keep their corner, now at their own ends' midpoint."""
+    p = np.array([[0.0, 0.0], [0.0, 0.0], [0.045, 0.0]])
+    q = np.array([[2.0, 0.0], [0.0, 2.0], [0.12, 0.015]])
+    assert find_corners(p, q).ends[0].tolist() == [[0, 0], [1, 0], [2, 0]]
+    c = find_corners(p, q, CornerParams(drawn_apart=True))
+    assert c.xy.tolist() == [[0.0, 0.0]] and c.ends[0].tolist() == [[0, 0], [1, 0]]
+    assert c.corner_of[2].tolist() == [-1, -1]
+
+
 def test_empty_input_and_bad_viewpoint():
     c = find_corners(np.zeros((0, 2)), np.zeros((0, 2)), viewpoint=(0, 0))
     assert c.xy.shape == (0, 2) and c.ends == [] and c.free.shape == (0, 2) and c.shape.shape == (0,)
@@ -148,10 +172,10 @@ def line_sets(draw):
     return p, q, rng.uniform(-1, 3, 2)
 
 
-@given(line_sets())
-def test_corner_properties(lines):
+@given(line_sets(), st.booleans())
+def test_corner_properties(lines, drawn_apart):
     p, q, robot = lines
-    params = CornerParams()
+    params = CornerParams(drawn_apart=drawn_apart)
     c = find_corners(p, q, params, viewpoint=robot)
     n, k = len(p), len(c.xy)
     ends = np.stack([p, q], axis=1)
@@ -180,16 +204,26 @@ def test_corner_properties(lines):
     i, j = i[linked], j[linked]
     shared = (corner[i] == corner[j]) & (corner[i] >= 0)
     dropped = ((corner[i] < 0) & (corner[i ^ 1] == corner[j])) | ((corner[j] < 0) & (corner[j ^ 1] == corner[i]))
-    assert (shared | dropped).all()
+    if not drawn_apart:
+        assert (shared | dropped).all()
+        return
+    # Drawn apart: the lines drawn from each corner to their other ends stay at least the corner angle from
+    # parallel.
+    for j, pairs in enumerate(c.ends):
+        far = ends[pairs[:, 0], 1 - pairs[:, 1]] - c.xy[j]
+        w = far / np.linalg.norm(far, axis=1)[:, None]
+        cos = np.abs(w @ w.T)[np.triu_indices(len(w), 1)]
+        assert (cos <= np.cos(np.radians(params.min_angle_deg)) + 1e-9).all()
 
 
-@given(line_sets(), st.randoms(use_true_random=False))
-def test_corners_do_not_depend_on_line_order(lines, random):
+@given(line_sets(), st.randoms(use_true_random=False), st.booleans())
+def test_corners_do_not_depend_on_line_order(lines, random, drawn_apart):
     p, q, robot = lines
     order = list(range(len(p)))
     random.shuffle(order)
-    c1 = find_corners(p, q, viewpoint=robot)
-    c2 = find_corners(p[order], q[order], viewpoint=robot)
+    params = CornerParams(drawn_apart=drawn_apart)
+    c1 = find_corners(p, q, params, viewpoint=robot)
+    c2 = find_corners(p[order], q[order], params, viewpoint=robot)
     key1 = sorted((tuple(np.round(xy, 9)), s) for xy, s in zip(c1.xy, c1.shape))
     key2 = sorted((tuple(np.round(xy, 9)), s) for xy, s in zip(c2.xy, c2.shape))
     assert key1 == key2

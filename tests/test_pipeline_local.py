@@ -68,8 +68,9 @@ def test_corners_of_a_cluttered_log_are_those_of_every_line():
 
 def assert_corners_of_every_line(run):
     """The map's corners are those the whole map's lines make, but for a second corner of two lines that
-    already meet at one: two edges between the same two points, which the graph cannot hold (the strict xfail
-    of ``test_points_end_the_right_number_of_lines``); one of its lines keeps a free end there."""
+    already meet at one: two edges between the same two points, which the graph cannot hold; one of its lines
+    keeps a free end there (two short lines whose both ends meet; the logs' excerpts had one until corners kept
+    their lines drawn apart, ``corners.drawn_apart``)."""
     g = run.map.graph
     fits = np.array([d["fit"] for _, _, d in g.edges(data=True)])
     whole = find_corners(fits[:, 0], fits[:, 1], run.config.corners)
@@ -82,20 +83,7 @@ def assert_corners_of_every_line(run):
         assert any(held[j] and len(lines[k] & lines[j]) >= 2 for j in range(len(lines)) if j != k), whole.xy[k]
 
 
-@pytest.mark.parametrize(
-    "kind",
-    [
-        "patrol",
-        pytest.param(
-            "log",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="two short lines whose both ends meet (a corner at each end) are two edges between the "
-                "same two points, which the map's graph cannot hold: one of them gets a free end point instead",
-            ),
-        ),
-    ],
-)
+@pytest.mark.parametrize("kind", ["patrol", "log"])
 def test_points_end_the_right_number_of_lines(kind):
     run = run_log(LOG, load_config("default")) if kind == "log" else patrol_run()
     g = run.map.graph
@@ -141,7 +129,7 @@ def test_lines_a_scan_comes_near_but_leaves_as_they_are_stay_as_they_are():
     the corner, the other stays free); a later segment 8 cm from a wall, too far to merge with it, changes
     none of them: same ids, same points, the corner the whole map's."""
     bm = new_map(load_config("default"))
-    bm.update(laser_only(0, [[0, 0], [0, 0], [0.01, 0.04]], [[2, 0], [0, 2], [0.04, 0.01]]))
+    bm.update(laser_only(0, [[0, 0], [0, 0], [0.02, 0.02]], [[2, 0], [0, 2], [0.035, 0.035]]))
     before = sorted((d["id"], u, v, d["fit"]) for u, v, d in bm.graph.edges(data=True))
     assert [(lid, u, v) for lid, u, v, _ in before] == [("L1", "C1", "E1"), ("L2", "C1", "E2"), ("L3", "C1", "E3")]
     bm.update(laser_only(1, [[0.5, 0.08]], [[1.5, 0.08]]))
