@@ -1,7 +1,8 @@
 """Rebuild of lines and corners near a change (paper, section III: merging, then corners).
 
 Every line holding a touched segment is dissolved, and its surviving segments
-are merged again with the touched ones (:mod:`evmap.maps.merging`); the lines
+are merged again with the touched ones (:mod:`evmap.maps.merging`), with, in
+turn, those of the lines that are merging's candidates with a merged line; the lines
 meeting a dissolved line, or with an end near an end found anew (and so on, in
 turn), are detached and re-attached with the new ones, so that their corners
 (:mod:`evmap.maps.corners`) are found anew. A merged line's mass is recomputed from its merged length and
@@ -20,6 +21,7 @@ masses carry the running masses of their sonar records
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -30,10 +32,10 @@ from numpy.typing import NDArray
 
 from evidential import MassFunction
 from evmap.maps.corners import find_corners
-from evmap.maps.merging import Merged, merge_segments
+from evmap.maps.merging import Merged, merge_segments, related_pairs
 from evmap.maps.noise import NoiseEvidence, noise_evidence
 from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, surface_points_near, unmoved
-from evmap.maps.running_mass import NOISE_STAGE, evidence_records, running_of, with_running
+from evmap.maps.running_mass import NOISE_STAGE, carried, with_running
 from evmap.maps.segments import CONSOLIDATE_POSES, SegmentStore
 from evmap.maps.sensed import kept_features
 from evmap.sources.config_model import Config
@@ -76,11 +78,7 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     """
     store = bm.segments
     g = bm.graph
-    dissolved = {lid: bm.ends(lid) for lid in sorted(set(store.line[touched].tolist()) - {""})}
-    members = [np.asarray(g.edges[ends]["members"], dtype=np.intp) for ends in dissolved.values()]
-    pool = np.union1d(touched, np.concatenate([np.zeros(0, dtype=np.intp), *members]))
-    pool = pool[~store.eliminated[pool]]
-    merged = merge_segments(store.p[pool], store.q[pool], config.merge, store.seen[pool])
+    dissolved, pool, merged = _merged_pool(bm, touched, config)
     evidence = _merged_evidence(bm, pool, merged, config)
 
     stays = unmoved(bm, pool, merged, dissolved)
@@ -104,6 +102,47 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     lines = kept + _new_lines(bm, pool, merged, fresh, evidence, histories, config)
     store.write(touched[store.eliminated[touched]], line="")
     return _attach(bm, lines, removed, viewpoint, config) | set(refitted.values()) | new_evidence
+
+
+def _merged_pool(
+    bm: BeliefMap, touched: NDArray[np.intp], config: Config
+) -> tuple[dict[str, tuple[str, str]], NDArray[np.intp], Merged]:
+    """The lines to dissolve (id -> end points), the surviving rows they and the ``touched`` rows make (the
+    pool), and the pool merged.
+
+    The lines holding a touched row are dissolved, and so, in turn, are the map's lines that are merging's
+    candidates with a merged line (:func:`~evmap.maps.merging.related_pairs`): a line that grew toward a
+    line of the same wall no update had touched joins it, as a merge of the whole map would.
+    """
+    store = bm.segments
+    g = bm.graph
+    lines = set(store.line[touched].tolist()) - {""}
+    while True:
+        dissolved = {lid: bm.ends(lid) for lid in sorted(lines)}
+        members = [np.asarray(g.edges[ends]["members"], dtype=np.intp) for ends in dissolved.values()]
+        pool = np.union1d(touched, np.concatenate([np.zeros(0, dtype=np.intp), *members]))
+        pool = pool[~store.eliminated[pool]]
+        merged = merge_segments(store.p[pool], store.q[pool], config.merge, store.seen[pool])
+        joining = _candidate_lines(bm, merged, lines, config)
+        if not joining:
+            return dissolved, pool, merged
+        lines |= joining
+
+
+def _candidate_lines(bm: BeliefMap, merged: Merged, dissolved: set[str], config: Config) -> set[str]:
+    """The map's lines, but the ``dissolved``, that are merging's candidates with one of the ``merged`` lines."""
+    reach = math.hypot(config.merge.gap, config.merge.distance)
+    lo, hi = np.minimum(merged.p, merged.q) - reach, np.maximum(merged.p, merged.q) + reach
+    near: set[str] = set()
+    for box in np.hstack([lo, hi]).tolist():
+        near |= bm.near(tuple(box), "lines")
+    near -= dissolved
+    if not near:
+        return set()
+    ids = sorted(near)
+    fits = np.array([bm.graph.edges[bm.ends(lid)]["fit"] for lid in ids], dtype=float).reshape(-1, 2, 2)
+    _, b, _ = related_pairs(merged.p, merged.q, config.merge, (fits[:, 0], fits[:, 1]), mergeable=True)
+    return {ids[i] for i in b.tolist()}
 
 
 def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> None:
@@ -303,7 +342,7 @@ def _new_lines(
     for k in fresh:
         members = pool[merged.groups[k]]
         replaced = set(store.line[members].tolist()) & set(histories)
-        records, running = _carried(bm, [histories[lid] for lid in sorted(replaced)], config)
+        records, running = carried(bm.frame, [histories[lid] for lid in sorted(replaced)], config.rule)
         lid = bm.new_id("L")
         first, first_mass, members = _merged_line(bm, lid, members, merged, k, evidence)
         data = {
@@ -335,7 +374,7 @@ def _attach(
         xy = corners.xy[k]
         close = np.hypot(*(removed_xy - xy).T) <= config.corners.distance
         near = [removed[j][1:] for j in np.flatnonzero(close).tolist()]
-        history, running = _carried(bm, near, config)
+        history, running = carried(bm.frame, near, config.rule)
         reinforced = any(r["category"] == "matched" for r in history)
         bm.add_point(
             cid, xy, "corner", bm.vacuous(), history=history, shape=str(corners.shape[k]), reinforced=reinforced
@@ -371,27 +410,3 @@ def _poses_seen(store: SegmentStore, pool: NDArray[np.intp], line_of: NDArray[np
     raw = np.unique(np.column_stack([line_of[~support], store.pose[pool[~support]]]), axis=0)
     behind = np.bincount(line_of[support], weights=store.seen[pool[support]], minlength=lines)
     return np.bincount(raw[:, 0], minlength=lines) + behind.astype(np.intp)
-
-
-def _carried(
-    bm: BeliefMap, replaced: list[tuple[list[dict[str, Any]], MassFunction | None]], config: Config
-) -> tuple[list[dict[str, Any]], MassFunction | None]:
-    """The sonar records carried over from replaced objects (history and running mass of each), and their
-    running mass: that of the one replaced object whose evidence records they are, else made from them."""
-    records = _carried_records([history for history, _ in replaced])
-    if len(replaced) == 1 and records == evidence_records(replaced[0][0]):
-        return records, replaced[0][1]
-    return records, running_of(bm.frame, records, config.rule)
-
-
-def _carried_records(histories: Iterable[list[dict[str, Any]]]) -> list[dict[str, Any]]:
-    """The sonar records of replaced objects, at most one per pose and source (``matched`` first), by pose."""
-    best: dict[tuple[Any, Any], dict[str, Any]] = {}
-    for history in histories:
-        for record in history:
-            if record.get("stage") != "reinforcement":
-                continue
-            key = (record["pose"], record["source"])
-            if key not in best or (record["category"] == "matched" and best[key]["category"] != "matched"):
-                best[key] = record
-    return [best[k] for k in sorted(best, key=lambda k: (k[0], str(k[1])))]

@@ -10,7 +10,8 @@ record more in when one is folded in: a rebuilt line's mass is then
 line was reinforced. Under an associative rule (Dempster's, the conjunctive,
 Bayes...) that is the history folded record by record,
 ``(..(first + r1)..) + rn``, up to rounding; under the others (Yager's,
-PCR6...) it is what defines the mass of a rebuilt line or corner.
+PCR6...) it is what defines the mass of a rebuilt line or corner, which carries
+over the records of the objects it replaces (:func:`carried`).
 
 >>> from evidential import Frame
 >>> frame = Frame(["real", "noise"])
@@ -26,7 +27,7 @@ from typing import Any
 
 from evidential import Frame, MassFunction, combine
 
-__all__ = ["NOISE_STAGE", "RunningMasses", "evidence_records", "running_of", "with_running"]
+__all__ = ["NOISE_STAGE", "RunningMasses", "carried", "evidence_records", "running_of", "with_running"]
 
 NOISE_STAGE = "noise_elimination"
 """The stage of a line's first record, its noise-elimination evidence (not part of its running mass)."""
@@ -86,3 +87,30 @@ class RunningMasses:
     def clear(self) -> None:
         """Forget every running mass: they are made again from the histories when asked for."""
         self._known.clear()
+
+
+def carried(
+    frame: Frame, replaced: list[tuple[list[dict[str, Any]], MassFunction | None]], rule: str
+) -> tuple[list[dict[str, Any]], MassFunction | None]:
+    """The sonar records a rebuilt line or corner carries over from the objects it replaces (the history and
+    running mass of each): at most one per pose and source (``matched`` first), by pose; and their running
+    mass: that of the one replaced object whose evidence records they are, else made from them.
+
+    >>> frame = Frame(["real", "noise"])
+    >>> seen = {"stage": "reinforcement", "pose": 0, "source": "sonar", "mass": {"real": 0.5, "real|noise": 0.5}}
+    >>> records, running = carried(frame, [([{**seen, "category": "missed"}], None), ([{**seen, "category": "matched"}], None)], "dempster")
+    >>> [r["category"] for r in records], running.to_dict()
+    (['matched'], {'real': 0.5, 'real|noise': 0.5})
+    """
+    best: dict[tuple[Any, Any], dict[str, Any]] = {}
+    for history, _ in replaced:
+        for record in history:
+            if record.get("stage") != "reinforcement":
+                continue
+            key = (record["pose"], record["source"])
+            if key not in best or (record["category"] == "matched" and best[key]["category"] != "matched"):
+                best[key] = record
+    records = [best[k] for k in sorted(best, key=lambda k: (k[0], str(k[1])))]
+    if len(replaced) == 1 and records == evidence_records(replaced[0][0]):
+        return records, replaced[0][1]
+    return records, running_of(frame, records, rule)

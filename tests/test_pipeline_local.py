@@ -45,12 +45,18 @@ def patrol_run():
 def test_lines_are_the_merge_of_every_surviving_segment(patrol):
     store, config = patrol.map.segments, patrol.config
     assert relation(store.p, store.q, patrol.map.open_space, config.noise).tolist() == store.relation.tolist()
+    assert_lines_of_the_whole_merge(patrol)
+
+
+def assert_lines_of_the_whole_merge(run):
+    """The map's lines are those a merge of every surviving segment makes, and their rows name them."""
+    store, config = run.map.segments, run.config
     keep = np.flatnonzero(~store.eliminated & (store.role != "absorbed"))
     merged = merge_segments(store.p[keep], store.q[keep], config.merge, store.seen[keep])
     whole = sorted(tuple(keep[g].tolist()) for g in merged.groups)
-    local = sorted(tuple(sorted(d["members"])) for _, _, d in patrol.map.graph.edges(data=True))
+    local = sorted(tuple(sorted(d["members"])) for _, _, d in run.map.graph.edges(data=True))
     assert local == whole
-    for _, _, d in patrol.map.graph.edges(data=True):
+    for _, _, d in run.map.graph.edges(data=True):
         assert (store.line[d["members"]] == d["id"]).all()
     assert (store.line[store.eliminated] == "").all()
 
@@ -59,11 +65,12 @@ def test_corners_are_those_of_every_line(patrol):
     assert_corners_of_every_line(patrol)
 
 
-def test_corners_of_a_cluttered_log_are_those_of_every_line():
+def test_lines_and_corners_of_a_cluttered_log_are_those_of_every_line():
     """Corners of many short lines, whose ends come within the corner distance of ends of lines left as they
-    are: those ends are found anew with them (its lines are not all the whole merge's: a few related lines
-    that no later update came near stay apart)."""
-    assert_corners_of_every_line(run_log(CLUTTER_LOG, load_config("default")))
+    are: those ends are found anew with them; and the lines are the whole merge's."""
+    run = run_log(CLUTTER_LOG, load_config("default"))
+    assert_lines_of_the_whole_merge(run)
+    assert_corners_of_every_line(run)
 
 
 def assert_corners_of_every_line(run):
@@ -161,3 +168,17 @@ def test_a_segment_the_new_rays_go_through_is_judged_again_though_nothing_is_see
     bm.update(first)
     bm.update(second)
     assert bm.segments.eliminated[there] and bm.segments.line[there] == ""
+
+
+def test_a_line_that_grows_toward_a_line_no_update_touched_joins_it():
+    """A wall seen as two pieces 6-7 cm apart across, too far to merge; a later piece beyond the first's other
+    end, which comes nowhere near the second, tilts the first's line toward it: the second is merged again with
+    them, as a merge of the whole map would."""
+    bm = new_map(load_config("default"))
+    bm.update(laser_only(0, [[0, 0], [1.03, 0.06]], [[1, 0], [2, 0.07]]))
+    assert sorted(d["members"] for _, _, d in bm.graph.edges(data=True)) == [[0], [1]]
+    bm.update(laser_only(1, [[-1, -0.045]], [[-0.02, -0.005]]))
+    store = bm.segments
+    whole = merge_segments(store.p, store.q, bm.config.merge)
+    assert [g.tolist() for g in whole.groups] == [[0, 1, 2]]
+    assert [d["members"] for _, _, d in bm.graph.edges(data=True)] == [[0, 1, 2]]
