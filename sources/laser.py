@@ -16,12 +16,11 @@
    (the formula over the widened ``dphi`` allows more, and any gap once ``dphi``
    reaches ``lambda``: on the Intel log, segments of 8-18 m across rooms); one
    such beam is a dropout, judged by the formula.
-3. Split (iterative end-point fit) and line fit of each cluster by
-   :func:`evmap.sources.polyline.fit_polylines`: a point further than
+3. Split (iterative end-point fit) of each cluster by
+   :func:`evmap.sources.polyline.split_pieces`: a point further than
    ``split_threshold + split_sigmas * sigma`` from its piece's chord splits it,
    ``sigma = sigma_r + sigma_per_metre * range`` the point's range noise std;
-   pieces of fewer than ``min_points`` points are dropped; each piece gets its
-   total-least-squares line.
+   pieces of fewer than ``min_points`` points are dropped.
 4. Whole runs: a run of ``cluster_min_points`` or more points that no piece
    holds (a cluster whose split left only pieces too short to keep, or what it
    left beside or between the pieces it kept) becomes one piece when every
@@ -43,8 +42,9 @@
    (shared, as a split point is). These are what a split leaves beyond a corner
    too few to fit, a mixed point at an edge, the start of a surface at a
    grazing angle: a ray the segments would otherwise not explain.
-5. Ends: each line is cut by the rays of its piece's first and last points, so
-   the segment spans, seen from the laser, exactly the beams it was fitted to.
+5. Ends: each piece's total-least-squares line is cut by the rays of its first
+   and last points, so the segment spans, seen from the laser, exactly the beams
+   it was fitted to.
 
 The segments come in the pipeline's :class:`~evmap.sources.readings.LslSegments`
 form (``truth`` is :data:`UNKNOWN_TRUTH`, ``snapshot`` 0, ``source`` ``""``); the
@@ -74,7 +74,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from evmap.sources.logs.scan import LaserScan
 from evmap.sources.params import LslParams
-from evmap.sources.polyline import fit_pieces, fit_polylines, piece_members
+from evmap.sources.polyline import fit_pieces, piece_lines, piece_members, piece_rows, split_pieces
 from evmap.sources.readings import LslSegments
 
 __all__ = ["UNKNOWN_TRUTH", "LaserParams", "LaserSegments", "Rays", "breakpoints", "laser_segments"]
@@ -204,8 +204,9 @@ def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) ->
     starts = breakpoints(scan, params)
     beams = np.flatnonzero(returned)
     # returned points in scan order, a NaN row before every cluster but the first: no piece spans two clusters
-    cluster_start = np.isin(beams, starts)
-    cluster_start[:1] = False
+    cluster_start = np.zeros(len(returned), dtype=bool)
+    cluster_start[starts[1:]] = True
+    cluster_start = cluster_start[beams]
     order = np.arange(len(beams)) + np.cumsum(cluster_start)
     points = np.full((len(beams) + int(cluster_start.sum()), 2), np.nan)
     points[order] = local[beams]
@@ -216,7 +217,7 @@ def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) ->
         break_distance=10.0,  # its largest: the clusters are already broken by the breakpoint detector
     )
     sigma = params.sigma_r + params.sigma_per_metre * np.nan_to_num(np.hypot(*points.T))
-    _, _, pieces = fit_polylines(points, sigma, fit_params)
+    pieces = split_pieces(points, sigma, fit_params)
     beam_of_row = np.full(len(points), -1)
     beam_of_row[order] = beams
     tolerance = params.split_threshold + params.split_sigmas * params.sigma_r
@@ -237,36 +238,45 @@ def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) ->
     return LaserSegments(segments, beam_of_row[pieces].reshape(-1, 2), origin, local + origin, returned)
 
 
-def _line(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Total least squares line of points: centre, unit direction, distance of every point from it."""
-    centre = points.mean(axis=0)
-    d = points - centre
-    sxx, syy, sxy = (d[:, 0] ** 2).sum(), (d[:, 1] ** 2).sum(), (d[:, 0] * d[:, 1]).sum()
-    phi = 0.5 * np.arctan2(2 * sxy, sxx - syy)
-    u = np.array([np.cos(phi), np.sin(phi)])
-    return centre, u, np.abs(d @ np.array([-u[1], u[0]]))
-
-
 def _merge(
     points: NDArray[np.float64], pieces: NDArray[np.intp], tolerance: float, limit: NDArray[np.float64]
 ) -> NDArray[np.intp]:
-    """Neighbouring pieces (sharing a point or adjacent, no gap row between) merged while one line still fits:
-    every point of the union within ``tolerance`` of its line, and its range within ``limit`` of where its ray
-    meets the line."""
+    """Neighbouring pieces (sharing a point or on adjacent rows) merged while one line still fits: every point of
+    the union within ``tolerance`` of its line, and its range within ``limit`` of where its ray meets the line."""
+    first, last = pieces.T
+    joins = np.r_[False, first[1:] - last[:-1] <= 1]  # whether each piece neighbours the one before
+    # whether a span's points (first and last row) fit one line: found at once for each piece that joins with the
+    # one or two before it (the unions a merge most often needs), for the others when needed
+    one, two = np.flatnonzero(joins), np.flatnonzero(joins[2:] & joins[1:-1]) + 2
+    spans = np.column_stack([first[np.r_[one - 1, two - 2]], last[np.r_[one, two]]])
+    fits = dict(zip(map(tuple, spans.tolist()), _fits_one_line(points, spans, tolerance, limit).tolist()))
     merged: list[list[int]] = []
-    for a, b in pieces.tolist():
-        joined = merged and a - merged[-1][1] <= 1 and not np.isnan(points[merged[-1][1] : a + 1]).any()
-        if joined and _fits_one_line(points[merged[-1][0] : b + 1], tolerance, limit[merged[-1][0] : b + 1]):
+    for k, (a, b) in enumerate(pieces.tolist()):
+        span = (merged[-1][0], b) if joins[k] else None
+        if span is not None and span not in fits:
+            fits[span] = bool(_fits_one_line(points, np.array([span]), tolerance, limit)[0])
+        if span is not None and fits[span]:
             merged[-1][1] = b
         else:
             merged.append([a, b])
     return np.array(merged, dtype=np.intp).reshape(-1, 2)
 
 
-def _fits_one_line(points: NDArray[np.float64], tolerance: float, limit: NDArray[np.float64]) -> bool:
-    """Whether every point lies within ``tolerance`` of the points' line and its range within ``limit``."""
-    centre, u, distance = _line(points)
-    return bool(distance.max() <= tolerance and (_range_misfit(points, centre, u) <= limit).all())
+def _fits_one_line(
+    points: NDArray[np.float64], spans: NDArray[np.intp], tolerance: float, limit: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    """Whether every point of each span (first and last row) lies within ``tolerance`` of the span's line and its
+    range within ``limit``."""
+    if len(spans) == 0:
+        return np.zeros(0, dtype=bool)
+    centre, u = piece_lines(points, spans)
+    rows = piece_rows(spans)  # padded with a span's last point: the same maximum, the same all
+    each = np.take(points, rows, axis=0)  # each span's points in a row
+    normal = u[:, ::-1] * [-1, 1]  # u turned a quarter left
+    # a matrix product per span (stacked), rounded as one span's was: BLAS may fuse the multiply-add
+    distance = np.abs(np.matmul(each - centre[:, None], normal[:, :, None])[..., 0])
+    ranges = _range_misfit(each, centre[:, None], u[:, None]) <= limit[rows]
+    return (distance.max(axis=1) <= tolerance) & ranges.all(axis=1)
 
 
 def _free_runs(
@@ -302,47 +312,55 @@ def _whole_runs(
 def _range_misfit(
     points: NDArray[np.float64], centre: NDArray[np.float64], u: NDArray[np.float64]
 ) -> NDArray[np.float64]:
-    """How far each point's range is from where its ray (from the origin) meets the line ``centre + s u`` (one
-    line, or one per point).
+    """How far the range of each point (x, y on the last axis) is from where its ray (from the origin) meets the
+    line ``centre + s u`` (one line, or lines broadcast against the points).
 
     Infinite where the ray runs along the line or meets it behind the origin; NaN for NaN points.
     """
-    r = np.hypot(points[:, 0], points[:, 1])
+    r = np.hypot(points[..., 0], points[..., 1])
     with np.errstate(divide="ignore", invalid="ignore"):
         meet = (
             r
             * (centre[..., 0] * u[..., 1] - centre[..., 1] * u[..., 0])
-            / (points[:, 0] * u[..., 1] - points[:, 1] * u[..., 0])
+            / (points[..., 0] * u[..., 1] - points[..., 1] * u[..., 0])
         )
         return np.where(np.isnan(r) | (meet > 0), np.abs(r - meet), np.inf)
 
 
 def _grow(points: NDArray[np.float64], pieces: NDArray[np.intp], limit: NDArray[np.float64]) -> NDArray[np.intp]:
     """Each piece extended over the neighbouring points of its cluster that no piece holds, while their range is
-    within ``limit`` (per point) of where their ray meets the piece's line."""
-    grown = pieces.copy()
+    within ``limit`` (per point) of where their ray meets the piece's line: after it up to the next piece, before it
+    down to what the piece before took."""
     p, q = fit_pieces(points, pieces)  # a point of each piece's line and another
-    for k, (a, b) in enumerate(pieces.tolist()):
-        low = grown[k - 1, 1] + 1 if k else 0
-        high = pieces[k + 1, 0] - 1 if k + 1 < len(pieces) else len(points) - 1
-        if a <= low and b >= high:
-            continue
-        u = (q[k] - p[k]) / np.hypot(*(q[k] - p[k]))
-        before, after = np.arange(a - 1, low - 1, -1), np.arange(b + 1, high + 1)  # nearest first
-        grown[k] = (
-            a - _run_within(points[before], limit[before], p[k], u),
-            b + _run_within(points[after], limit[after], p[k], u),
-        )
-    return grown
+    with np.errstate(invalid="ignore"):
+        u = (q - p) / np.hypot(*(q - p).T)[:, None]
+    first, last = pieces.T
+    after = np.r_[first[1:], len(points)] - last - 1  # rows between each piece and the next
+    end = last + _runs_within(points, limit, last + 1, after, 1, p, u)
+    before = first - np.r_[0, end[:-1] + 1]  # rows between the piece before (as grown) and each piece
+    return np.column_stack([first - _runs_within(points, limit, first - 1, before, -1, p, u), end])
 
 
-def _run_within(
-    points: NDArray[np.float64], limit: NDArray[np.float64], centre: NDArray[np.float64], u: NDArray[np.float64]
-) -> int:
-    """How many of ``points``, from the first on, lie in a row within ``limit`` of the line ``centre + s u``
-    (range along the ray); a NaN point ends the row."""
-    fits = _range_misfit(points, centre, u) <= limit
-    return len(fits) if fits.all() else int(np.argmin(fits))
+def _runs_within(
+    points: NDArray[np.float64],
+    limit: NDArray[np.float64],
+    start: NDArray[np.intp],
+    count: NDArray[np.intp],
+    step: int,
+    centre: NDArray[np.float64],
+    u: NDArray[np.float64],
+) -> NDArray[np.intp]:
+    """For each line ``centre + s u``, how many of the ``count`` points from row ``start`` on (``step`` 1: up, -1:
+    down; a negative count: none) lie in a row within ``limit`` of it (range along the ray); a NaN point ends the
+    row."""
+    count = np.maximum(count, 0)
+    owner = np.repeat(np.arange(len(count)), count)
+    offset = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    rows = start[owner] + step * offset
+    misfit = ~(_range_misfit(points[rows], centre[owner], u[owner]) <= limit[rows])
+    within = count.copy()
+    np.minimum.at(within, owner[misfit], offset[misfit])  # up to each line's first misfit
+    return within
 
 
 def _cut_by_end_rays(
@@ -352,14 +370,18 @@ def _cut_by_end_rays(
 
     Where a ray nearly runs along the line, the point's foot on the line is used instead.
     """
-    p, q = np.zeros((len(pieces), 2)), np.zeros((len(pieces), 2))
-    for k, (a, b) in enumerate(pieces.tolist()):
-        centre, u, _ = _line(points[a : b + 1])
-        for out, end in ((p, points[a]), (q, points[b])):
-            cross = end[0] * u[1] - end[1] * u[0]  # ray direction (end) x line direction
-            t = (centre[0] * u[1] - centre[1] * u[0]) / cross if abs(cross) > 1e-3 * np.hypot(*end) else np.nan
-            out[k] = end * t if np.isfinite(t) and t > 0 else centre + ((end - centre) @ u) * u
-    return p, q
+    centre, u = piece_lines(points, pieces)
+    c, u, ends = centre[:, None], u[:, None], points[pieces]  # ends: (n, 2, 2), each piece's first and last point
+    cross = ends[..., 0] * u[..., 1] - ends[..., 1] * u[..., 0]  # ray direction (end) x line direction
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(
+            np.abs(cross) > 1e-3 * np.hypot(ends[..., 0], ends[..., 1]),
+            (c[..., 0] * u[..., 1] - c[..., 1] * u[..., 0]) / cross,
+            np.nan,
+        )
+    along = (ends[..., 0] - c[..., 0]) * u[..., 0] + (ends[..., 1] - c[..., 1]) * u[..., 1]
+    cut = np.where((np.isfinite(t) & (t > 0))[..., None], ends * t[..., None], c + along[..., None] * u)
+    return cut[:, 0], cut[:, 1]
 
 
 def _end_runs(points: NDArray[np.float64], pieces: NDArray[np.intp], longest: int) -> NDArray[np.intp]:

@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from evmap.sources.params import LslParams
 
-__all__ = ["fit_pieces", "fit_polylines", "piece_members", "split_pieces"]
+__all__ = ["fit_pieces", "fit_polylines", "piece_lines", "piece_members", "piece_rows", "split_pieces"]
 
 
 def fit_polylines(
@@ -50,27 +50,36 @@ def fit_polylines(
 
 
 def split_pieces(points: NDArray[np.float64], sigma: NDArray[np.float64], params: LslParams) -> NDArray[np.intp]:
-    """(n, 2) first and last index of each piece: runs broken at gaps, split by iterative end-point fit."""
+    """(n, 2) first and last index of each piece: runs broken at gaps, split by iterative end-point fit (all the
+    pieces of a round at once)."""
     tol = params.split_threshold + params.split_sigmas * sigma
     valid = np.flatnonzero(~np.isnan(points).any(axis=1))
+    if len(valid) == 0:
+        return np.zeros((0, 2), dtype=np.intp)
     gap = np.hypot(*np.diff(points[valid], axis=0).T)
     cut = np.flatnonzero((np.diff(valid) != 1) | (gap > params.break_distance)) + 1
-    pieces = []
-    for run in np.split(valid, cut):
-        stack = [(run[0], run[-1])] if len(run) >= params.min_points else []
-        while stack:
-            a, b = stack.pop()
-            pts = points[a : b + 1]
-            chord = pts[-1] - pts[0]
-            normal = np.array([-chord[1], chord[0]]) / np.hypot(*chord)
-            deviation = np.abs((pts - pts[0]) @ normal)
-            if np.any(deviation > tol[a : b + 1]):
-                m = a + int(np.argmax(deviation))
-                stack += [(m, b)] if b - m + 1 >= params.min_points else []
-                stack += [(a, m)] if m - a + 1 >= params.min_points else []
-            else:
-                pieces.append((a, b))
-    return np.array(sorted(pieces), dtype=np.intp).reshape(-1, 2)
+    runs = np.column_stack([valid[np.r_[0, cut]], valid[np.r_[cut - 1, len(valid) - 1]]])
+    todo, pieces = runs[runs[:, 1] - runs[:, 0] + 1 >= params.min_points], np.zeros((0, 2), dtype=np.intp)
+    while len(todo):
+        far, split = _farthest_from_chord(points, todo, tol)
+        pieces = np.concatenate([pieces, todo[~split]])
+        halves = np.repeat(todo[split], 2, axis=0)  # each split piece twice, cut at its farthest point
+        halves[::2, 1] = halves[1::2, 0] = far[split]
+        todo = halves[halves[:, 1] - halves[:, 0] + 1 >= params.min_points]
+    return pieces[np.lexsort(pieces.T[::-1])]
+
+
+def _farthest_from_chord(
+    points: NDArray[np.float64], pieces: NDArray[np.intp], tol: NDArray[np.float64]
+) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+    """Index of each piece's point farthest from its chord (the first of equals), and whether any point of the piece
+    is further than its ``tol`` from the chord."""
+    rows = piece_rows(pieces)
+    start, chord = points[pieces[:, 0]], points[pieces[:, 1]] - points[pieces[:, 0]]
+    normal = chord[:, ::-1] * [-1, 1] / np.hypot(*chord.T)[:, None]  # the chord turned a quarter left, unit length
+    # a matrix product per piece (stacked), rounded as one piece's was: BLAS may fuse the multiply-add
+    deviation = np.abs(np.matmul(np.take(points, rows, axis=0) - start[:, None], normal[:, :, None])[..., 0])
+    return pieces[:, 0] + deviation.argmax(axis=1), (deviation > tol[rows]).any(axis=1)
 
 
 def fit_pieces(
@@ -90,6 +99,53 @@ def fit_pieces(
     t = (d * u[owner]).sum(axis=1)
     t_min, t_max = np.minimum.reduceat(t, starts), np.maximum.reduceat(t, starts)
     return centre + t_min[:, None] * u, centre + t_max[:, None] * u
+
+
+def piece_lines(
+    points: NDArray[np.float64], pieces: NDArray[np.intp]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Total least squares line of each piece's points, centre and unit direction: to the last bit the line numpy
+    gives for the piece's points alone (the centre summed point after point, as ``mean(axis=0)`` sums; the moments
+    pairwise, as ``sum`` sums; :func:`fit_pieces` sums in another order).
+
+    >>> pts = np.random.default_rng(1).normal(size=(30, 2))
+    >>> centre, u = piece_lines(pts, np.array([[0, 11], [11, 29]]))
+    >>> d = pts[11:] - pts[11:].mean(axis=0)
+    >>> phi = 0.5 * np.arctan2(2 * (d[:, 0] * d[:, 1]).sum(), (d[:, 0] ** 2).sum() - (d[:, 1] ** 2).sum())
+    >>> bool((centre[1] == pts[11:].mean(axis=0)).all() and (u[1] == [np.cos(phi), np.sin(phi)]).all())
+    True
+    """
+    if len(pieces) == 0:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    members, owner, starts = piece_members(pieces)
+    count = pieces[:, 1] - pieces[:, 0] + 1
+    rows = piece_rows(pieces)
+    past_end = np.arange(rows.shape[1]) >= count[:, None]
+    # one piece a column, -0.0 past its end, summed over the first axis: point after point
+    padded = np.take(np.append(points, [[-0.0, -0.0]], axis=0), np.where(past_end, len(points), rows).T, axis=0)
+    centre = padded.sum(axis=0) / count[:, None]
+    d = points[members] - centre[owner]
+    sxx, syy, sxy = _piece_sums(np.column_stack([d[:, 0] ** 2, d[:, 1] ** 2, d[:, 0] * d[:, 1]]), starts).T
+    phi = 0.5 * np.arctan2(2 * sxy, sxx - syy)
+    return centre, np.column_stack([np.cos(phi), np.sin(phi)])
+
+
+def _piece_sums(values: NDArray[np.float64], starts: NDArray[np.intp]) -> NDArray[np.float64]:
+    """Sum of each piece's values (rows; the pieces one after the other, from ``starts``), each summed as ``sum``
+    sums it alone (pairwise): ``np.add.reduceat`` starts from a piece's first value and sums the rest pairwise, so
+    a -0.0 goes first."""
+    return np.add.reduceat(np.insert(values, starts, -0.0, axis=0), starts + np.arange(len(starts)), axis=0)
+
+
+def piece_rows(pieces: NDArray[np.intp]) -> NDArray[np.intp]:
+    """(n, m) the point indices of each piece in a row, ``m`` the longest piece's count, a shorter piece's row
+    padded with its last index (the row's maximum, first arg-maximum, any and all are those of the piece).
+
+    >>> piece_rows(np.array([[0, 3], [3, 4], [6, 8]])).tolist()
+    [[0, 1, 2, 3], [3, 4, 4, 4], [6, 7, 8, 8]]
+    """
+    count = pieces[:, 1] - pieces[:, 0] + 1
+    return pieces[:, :1] + np.minimum(np.arange(count.max(initial=0)), count[:, None] - 1)
 
 
 def piece_members(pieces: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from evmap.sources.geometry import cast_rays
 from evmap.sources.params import LslParams, SonarParams
-from evmap.sources.polyline import fit_polylines
+from evmap.sources.polyline import fit_polylines, split_pieces
 from evmap.sources.readings import LslSegments, concat_segments
 from evmap.sources.sim.lsl import LSL_NOISE_STREAM, lsl_segments, observe_lsl, observe_lsl_all, stripe_scan
 from evmap.sources.sim.scenario import Robot, Scenario, load_scenario
@@ -173,6 +173,45 @@ def test_fit_polylines_min_points_and_breaks() -> None:
     p, q, pieces = fit_polylines(two_runs, np.zeros(10), LslParams(break_distance=0.2))
     assert pieces.tolist() == [[0, 9]]
     np.testing.assert_allclose([p[0], q[0]], [[0, 2], [0.55, 2]], atol=1e-12)
+
+
+def split_one_by_one(points: np.ndarray, sigma: np.ndarray, params: LslParams) -> list[list[int]]:
+    """The iterative end-point fit piece by piece (split_pieces splits all the pieces of a round at once)."""
+    tol = params.split_threshold + params.split_sigmas * sigma
+    valid = np.flatnonzero(~np.isnan(points).any(axis=1))
+    gap = np.hypot(*np.diff(points[valid], axis=0).T)
+    cut = np.flatnonzero((np.diff(valid) != 1) | (gap > params.break_distance)) + 1
+    stack = [(run[0], run[-1]) for run in np.split(valid, cut) if len(run)]
+    pieces = []
+    while stack:
+        a, b = stack.pop()
+        if b - a + 1 < params.min_points:
+            continue
+        chord = points[b] - points[a]
+        deviation = np.abs((points[a : b + 1] - points[a]) @ (np.array([-chord[1], chord[0]]) / np.hypot(*chord)))
+        if np.any(deviation > tol[a : b + 1]):
+            m = a + int(np.argmax(deviation))
+            stack += [(a, m), (m, b)]
+        else:
+            pieces.append([int(a), int(b)])
+    return sorted(pieces)
+
+
+def test_split_pieces_is_the_end_point_fit_piece_by_piece() -> None:
+    rng = np.random.default_rng(3)
+    for trial in range(300):
+        n = int(rng.integers(0, 60))
+        if trial % 2:  # points of a grid: many deviations equal
+            points = rng.integers(-3, 4, size=(n, 2)).astype(float)
+        else:
+            points = np.cumsum(rng.normal(size=(n, 2)) * 0.05, axis=0)
+        points[rng.random(n) < 0.05] = np.nan
+        sigma = rng.random(n) * 0.02
+        params = LslParams(
+            min_points=int(rng.integers(2, 6)), split_sigmas=float(rng.integers(0, 3)), break_distance=10
+        )
+        with np.errstate(invalid="ignore"):  # a chord of no length (grid points repeat)
+            assert split_pieces(points, sigma, params).tolist() == split_one_by_one(points, sigma, params)
 
 
 def test_split_distance_grows_with_noise() -> None:
