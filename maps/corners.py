@@ -9,6 +9,12 @@ most one corner; a corner holds at most one end of each line (were a line
 shorter than the tolerance to bring both its ends, the one nearer the
 corner's first centroid stays and the other is left free).
 
+With ``drawn_apart`` (:class:`~evmap.sources.params.CornerParams`), the lines
+drawn from a corner to their other ends must stay ``min_angle_deg`` from
+parallel too: where two come closer (a short piece folded onto a wall, a
+bending wall drawn straight), the end of the line the corner turns most from
+its own direction leaves it, and the corner is found again without it.
+
 Only end points are compared: an end point near the middle of another line
 (a T-junction) makes no corner, and parallel lines whose ends touch make none
 (merging is where collinear pieces join).
