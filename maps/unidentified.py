@@ -11,13 +11,23 @@ point within ``unidentified.explained_distance`` of a believed map line
 own simulated RCD is cut differently, merged with a neighbour's, or shifted
 past a gate). With ``unidentified.behind_contour``, an arc point beyond the
 pose's own stripe (:func:`evmap.maps.free_space.contour_bound` of its points on
-believed lines, and of the chords across gaps between believed lines that the
-chord continues: panes in a wall) is explained too: sound does not come back
+believed lines, and of the chords, at most ``unidentified.window_width`` long,
+across gaps between believed lines that the chord continues: panes in a wall)
+is explained too: sound does not come back
 through the surface the stripe measured, so the echo is a multiple reflection.
 An RCD whose whole arc is explained makes no object; one beside a wall (a
 window in it) makes its object on the part beside the line. An object that a
 believed line comes to explain as later poses extend the lines is removed
 (:func:`drop_explained`).
+
+With ``unidentified.pane_width``, a believed object that a pose's stripe saw
+through (no stripe point near it) is also a pane that width across, square to
+the bearing that pose heard it at (a glass pane heard at normal incidence: the
+stripe goes through it, the sound does not). An object
+whose every path to the poses that heard it crosses another object's pane, and
+lies more than ``merge_radius`` beyond it, came back through that pane: a
+double bounce off the glass, placed along its first leg. It is removed
+(:func:`drop_explained`, :func:`behind_panes`).
 """
 
 from __future__ import annotations
@@ -31,7 +41,7 @@ from numpy.typing import NDArray
 
 from evidential import MassFunction
 from evmap.maps.free_space import FreeSpaceParams, contour_bound, surface_rays
-from evmap.maps.sensed import pose_sensed
+from evmap.maps.sensed import Sensed, pose_sensed, sensed
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.sources.config_model import Config
 from evmap.sources.geometry import point_segment_distances
@@ -40,7 +50,7 @@ from evmap.sources.rcd import TYPE_IV, TYPE_NAMES
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["BELIEVED", "add_unidentified", "drop_explained"]
+__all__ = ["BELIEVED", "add_unidentified", "behind_panes", "drop_explained"]
 
 BELIEVED = 0.5
 """A map line with Bel(real) at least this explains the echoes on it (``unidentified.explained_distance``)."""
@@ -100,17 +110,119 @@ def add_unidentified(
 
 
 def drop_explained(bm: BeliefMap, config: Config) -> list[str]:
-    """Remove the unidentified objects a believed line now explains (within ``unidentified.explained_distance``).
+    """Remove the unidentified objects a believed line now explains (within ``unidentified.explained_distance``),
+    and those behind another object's pane (``unidentified.pane_width``, :func:`behind_panes`).
 
     An object placed where the map had no believed line may find one there as later
-    poses extend or confirm the lines: its echo is that line's. Nothing is removed when
-    ``explained_distance`` is 0 (the paper's method). Returns the removed ids.
+    poses extend or confirm the lines: its echo is that line's. A pane heard by a later
+    pose may stand between an object and every pose that heard it. Nothing is removed
+    when ``explained_distance`` and ``pane_width`` are 0 (the paper's method). Returns
+    the removed ids.
     """
-    distance = config.unidentified.explained_distance
+    removed = _on_lines(bm, config.unidentified.explained_distance)
+    for uid in removed:
+        bm.remove_point(uid)
+    hidden = behind_panes(bm, config)
+    for uid in hidden:
+        bm.remove_point(uid)
+    return removed + hidden
+
+
+def behind_panes(bm: BeliefMap, config: Config) -> list[str]:
+    """The unidentified objects whose every path to the poses that heard them crosses another object's pane.
+
+    A pane is a face ``unidentified.pane_width`` across, square to the bearing from a pose
+    that heard the object, of each object believed at least :data:`BELIEVED` that the
+    pose's stripe saw through (:func:`_panes`). An object crosses one when the segment
+    from a pose's sensor to it meets the face and it lies more than
+    ``unidentified.merge_radius`` beyond the face's line. None when ``pane_width`` is 0.
+    """
+    params = config.unidentified
+    if params.pane_width <= 0:
+        return []
+    poses = {s.pose_index: s for s in sensed(bm)}
+    fp, fq = _panes(bm, poses, params.pane_width, params.merge_radius)
+    if not len(fp):
+        return []
+    ids, xy, start = [], [], []
+    for u in bm.unidentified():
+        for pose in sorted(_heard_from(bm, u.id) & poses.keys()):
+            ids.append(u.id)
+            xy.append(u.xy)
+            start.append(poses[pose].origin)
+    if not ids:
+        return []
+    a, b = np.array(start, dtype=float), np.array(xy, dtype=float)
+    path, face = shapely.STRtree(shapely.linestrings(np.stack([fp, fq], axis=1))).query(
+        shapely.linestrings(np.stack([a, b], axis=1)), predicate="intersects"
+    )
+    blocked = np.zeros(len(ids), dtype=bool)
+    blocked[path[_beyond(b[path], fp[face], fq[face]) > params.merge_radius]] = True
+    path_ids = np.array(ids)
+    return sorted(set(path_ids[blocked].tolist()) - set(path_ids[~blocked].tolist()))
+
+
+def _panes(
+    bm: BeliefMap, poses: dict[int, Sensed], width: float, radius: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Faces p-q, (F, 2) each, ``width`` across, of the believed objects a pose heard and its stripe saw through.
+
+    The face of an object heard from a pose is square to the bearing from the pose. A pose
+    whose stripe put a point within ``radius`` of the object (its rays within
+    :attr:`FreeSpaceParams.max_gap` of the object's bearing) saw an opaque surface there, a
+    corner or a pillar, not a pane: it gives no face.
+    """
+    max_gap = FreeSpaceParams().max_gap
+    p, q = [], []
+    for u in bm.unidentified(BELIEVED):
+        xy = np.asarray(u.xy, dtype=float)
+        for pose in sorted(_heard_from(bm, u.id) & poses.keys()):
+            d = xy - poses[pose].origin
+            n = float(np.hypot(*d))
+            if n <= 0 or _stripe_at(poses[pose], xy, max_gap, radius):
+                continue
+            side = np.array([-d[1], d[0]]) / n * width / 2
+            p.append(xy - side)
+            q.append(xy + side)
+    return np.array(p, dtype=float).reshape(-1, 2), np.array(q, dtype=float).reshape(-1, 2)
+
+
+def _stripe_at(s: Sensed, xy: NDArray[np.float64], angle: float, radius: float) -> bool:
+    """Whether a returned ray of ``s`` within ``angle`` of the bearing of ``xy`` ends within ``radius`` of it."""
+    d = xy - s.origin
+    bearing = np.arctan2(d[1], d[0])
+    lo, hi = np.searchsorted(s.bearing, [bearing - angle, bearing + angle])
+    rays = np.r_[lo:hi]
+    if bearing - angle < -np.pi:  # the bearings wrap around at -pi
+        rays = np.r_[rays, np.searchsorted(s.bearing, bearing - angle + 2 * np.pi) : len(s.bearing)]
+    if bearing + angle >= np.pi:
+        rays = np.r_[rays, 0 : np.searchsorted(s.bearing, bearing + angle - 2 * np.pi)]
+    r = s.range[rays]
+    ok = np.isfinite(r)
+    if not ok.any():
+        return False
+    t = s.bearing[rays[ok]]
+    ends = s.origin + r[ok, None] * np.column_stack([np.cos(t), np.sin(t)])
+    return bool((np.hypot(*(ends - xy).T) <= radius).any())
+
+
+def _heard_from(bm: BeliefMap, uid: str) -> set[int]:
+    """The poses whose evidence the object's history records."""
+    return {r["pose"] for r in bm.graph.nodes[uid].get("history", ()) if "pose" in r}
+
+
+def _beyond(xy: NDArray[np.float64], p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distance (m) of each point (K, 2) from the line through its face p-q (K, 2 each)."""
+    d = q - p
+    return np.abs(d[:, 0] * (xy - p)[:, 1] - d[:, 1] * (xy - p)[:, 0]) / np.maximum(np.hypot(*d.T), 1e-12)
+
+
+def _on_lines(bm: BeliefMap, distance: float) -> list[str]:
+    """The unidentified objects within ``distance`` of a believed map line (none when ``distance`` is 0)."""
     if distance <= 0:
         return []
     g = bm.graph
-    removed = []
+    found = []
     for u in bm.unidentified():
         x, y = u.xy
         near = bm.near((x - distance, y - distance, x + distance, y + distance), "lines")
@@ -121,9 +233,8 @@ def drop_explained(bm: BeliefMap, config: Config) -> list[str]:
         p = np.array([g.nodes[a]["xy"] for a, _ in ends], dtype=float)
         q = np.array([g.nodes[b]["xy"] for _, b in ends], dtype=float)
         if point_segment_distances(np.array([x, y]), p, q).min() <= distance:
-            bm.remove_point(u.id)
-            removed.append(u.id)
-    return removed
+            found.append(u.id)
+    return found
 
 
 ARC_SAMPLES = 9
@@ -148,7 +259,7 @@ def _unexplained(
         free &= point_segment_distances(arc[..., None, :], p, q).min(axis=-1) > params.explained_distance
     sensed = pose_sensed(bm, pose_index) if params.behind_contour else None
     if sensed is not None:
-        shape = FreeSpaceParams()
+        shape = FreeSpaceParams(bridge=params.window_width)
         surfaces = surface_rays(sensed, s.p[believed], s.q[believed], shape.margin, on=True)
         on_wall = _in_line(s.p[believed], s.q[believed], shape.margin)
         bound = contour_bound(surfaces, shape, float(actual.range[keep].max()) + 1.0, on_wall)

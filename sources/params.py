@@ -172,3 +172,17 @@ class UnidentifiedParams(_Params):
         "across gaps in it) is a multiple reflection, not an object: sound does not come back through the surface "
         "the stripe measured; false, the paper's method",
     )
+    window_width: float = Field(
+        2.5,
+        gt=0,
+        description="with behind_contour, a gap in the stripe at most this wide (m) between stripe points on "
+        "believed lines that its chord continues is a window in a wall: an echo beyond its chord came back "
+        "through the glass",
+    )
+    pane_width: float = Field(
+        0.0,
+        ge=0,
+        description="a believed unidentified object is a pane this wide (m), square to the bearing it was heard "
+        "at: an object whose every path to the poses that heard it crosses another's pane, and lies more than "
+        "merge_radius beyond it, is a multiple reflection and is removed; 0, the paper's method: no panes",
+    )
