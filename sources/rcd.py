@@ -109,10 +109,14 @@ def _runs(r: NDArray[np.float64], tol: float) -> list[tuple[int, int]]:
     return runs
 
 
-def _majority(values: NDArray[Any]) -> Any:
-    """The most frequent value (the smallest among ties)."""
-    uniq, counts = np.unique(values, return_counts=True)
-    return uniq[np.argmax(counts)]
+def _majorities(values: NDArray[Any], i: NDArray[np.intp], j: NDArray[np.intp]) -> NDArray[Any]:
+    """The most frequent of ``values[i:j]`` for each run (the smallest among ties)."""
+    out = values[i] if len(i) else values[:0]
+    changes = np.r_[0, np.cumsum(values[1:] != values[:-1])]
+    for k in np.flatnonzero(changes[j - 1] != changes[i]):  # runs of more than one value
+        uniq, counts = np.unique(values[i[k] : j[k]], return_counts=True)
+        out[k] = uniq[np.argmax(counts)]
+    return out
 
 
 def extract_rcds(scan: SonarScan, params: RcdParams, *, primitive: bool = False) -> Rcds:
@@ -151,53 +155,41 @@ def extract_rcds(scan: SonarScan, params: RcdParams, *, primitive: bool = False)
     idx = (first + np.arange(m)) % m
     rr = r[idx]
     along = scan.angles[idx] + np.where(idx < first, 2 * np.pi, 0.0)  # unwrapped in run order
-    step = scan.step
     runs = _runs(rr, tol)
-    if closed and len(runs) == 1:
-        runs_nb = [(np.nan, np.nan)]
-    else:
-        runs_nb = [
-            (
-                rr[i - 1] if i > 0 else (rr[-1] if closed else np.nan),
-                rr[j] if j < m else (rr[0] if closed else np.nan),
-            )
-            for i, j in runs
-        ]
-    rows = []
-    for (i, j), (prev, nxt) in zip(runs, runs_nb):
-        seg = rr[i:j]
-        mean = float(seg.mean())
-        nb = np.array([prev, nxt])
-        nb = nb[np.isfinite(nb)]
-        if mean >= scan.params.max_range - tol or np.any(mean - nb > params.jump_threshold):
-            kind = TYPE_IV
-        elif np.all(nb >= mean):
-            kind = TYPE_I
-        elif np.all(nb < mean):
-            kind = TYPE_III
-        else:
-            kind = TYPE_II
-        direction = float(np.angle(np.exp(1j * along[i:j].mean())))
-        rows.append(
-            (
-                idx[i],
-                idx[j - 1],
-                j - i,
-                along[j - 1] - along[i] + step,
-                direction,
-                mean,
-                float(seg.min()),
-                kind,
-                prev,
-                nxt,
-                _majority(scan.target[idx[i:j]]),
-                _majority(scan.order[idx[i:j]]),
-            )
-        )
-    rows.sort(key=lambda row: row[0])
-    cols = list(zip(*rows)) if rows else [()] * 12
+    i = np.array([run[0] for run in runs], dtype=np.intp)
+    j = np.array([run[1] for run in runs], dtype=np.intp)
+    wrap = (rr[-1], rr[0]) if closed and len(runs) > 1 else (np.nan, np.nan)
+    prev = np.where(i > 0, rr[i - 1], wrap[0])
+    nxt = np.where(j < m, rr[np.minimum(j, m - 1)], wrap[1])
+    mean = np.array([rr[a:b].mean() for a, b in runs])  # as each run's own mean: to the last bit
+    nb = np.stack([prev, nxt], axis=1)
+    seen = np.isfinite(nb)
+    jump = np.any(seen & (mean[:, None] - nb > params.jump_threshold), axis=1)
+    longer = np.all(~seen | (nb >= mean[:, None]), axis=1)
+    shorter = np.all(~seen | (nb < mean[:, None]), axis=1)
+    kind = np.where(
+        (mean >= scan.params.max_range - tol) | jump,
+        TYPE_IV,
+        np.where(longer, TYPE_I, np.where(shorter, TYPE_III, TYPE_II)),
+    )
+    direction = np.angle(np.exp(1j * np.array([along[a:b].mean() for a, b in runs])))
+    order = np.argsort(idx[i])
+    columns = (
+        idx[i],
+        idx[j - 1],
+        j - i,
+        along[j - 1] - along[i] + scan.step,
+        direction,
+        mean,
+        np.minimum.reduceat(rr, i) if m else np.empty(0),
+        kind,
+        prev,
+        nxt,
+        np.array(_majorities(scan.target[idx], i, j).tolist(), dtype=str),
+        _majorities(scan.order[idx], i, j),
+    )
     dtypes = [np.intp, np.intp, np.intp, float, float, float, float, int, float, float, str, int]
-    rcds = Rcds(*(np.array(col, dtype=dt) for col, dt in zip(cols, dtypes)))
+    rcds = Rcds(*(np.asarray(column, dtype=dt)[order] for column, dt in zip(columns, dtypes)))
     if primitive:
         return rcds
     echo = rcds.range < scan.params.max_range - tol

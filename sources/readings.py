@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -149,7 +150,7 @@ class SonarScan:
     def __len__(self) -> int:
         return len(self.angles)
 
-    @property
+    @cached_property
     def step(self) -> float:
         """Angle between consecutive readings (rad): the median spacing, or the configured step."""
         if len(self.angles) >= 2:
