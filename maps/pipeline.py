@@ -103,6 +103,7 @@ def _fold(bm: BeliefMap, obs: Observation, config: Config) -> PoseOutcome:
     """The stages of :func:`fold_observation`, after its checks."""
     store = bm.segments
     pose = obs.pose
+    version = bm.version  # the objects this update changes: those unidentified objects may lie behind
 
     # 1. open space of this pose, added to the map's
     if obs.sonar is not None:
@@ -130,7 +131,7 @@ def _fold(bm: BeliefMap, obs: Observation, config: Config) -> PoseOutcome:
     unidentified = add_unidentified(bm, check, pose, obs.pose_index, config)
     reinforced_lines = {i for i in categories if i in bm and bm.is_line(i)}
     refresh_points(bm, touched_lines | reinforced_lines, config)
-    dropped = set(drop_explained(bm, config))
+    dropped = set(drop_explained(bm, config, bm.changed_since(version)))
     unidentified = [u for u in unidentified if u not in dropped]
     return PoseOutcome(
         obs.pose_index,

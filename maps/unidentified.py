@@ -28,11 +28,18 @@ whose every path to the poses that heard it crosses another object's pane, and
 lies more than ``merge_radius`` beyond it, came back through that pane: a
 double bounce off the glass, placed along its first leg. It is removed
 (:func:`drop_explained`, :func:`behind_panes`).
+
+With ``unidentified.behind_depth``, objects are judged again as lines become
+believed: one lying more than that beyond the stripe's contour
+(:func:`evmap.maps.stripe_contour.stripe_bound`, as ``behind_contour``) of every
+pose that heard it is a multiple reflection made before the lines it lies behind
+were believed, and is removed (:func:`behind_stripes`; only the objects the
+update's changed lines may hide are judged).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -40,17 +47,19 @@ import shapely
 from numpy.typing import NDArray
 
 from evidential import MassFunction
-from evmap.maps.free_space import FreeSpaceParams, contour_bound, surface_rays
+from evmap.maps.free_space import FreeSpaceParams
 from evmap.maps.sensed import Sensed, pose_sensed, sensed
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
+from evmap.maps.stripe_contour import stripe_bound
 from evmap.sources.config_model import Config
 from evmap.sources.geometry import point_segment_distances
+from evmap.sources.params import UnidentifiedParams
 from evmap.sources.rcd import TYPE_IV, TYPE_NAMES
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["BELIEVED", "add_unidentified", "behind_panes", "drop_explained"]
+__all__ = ["BELIEVED", "add_unidentified", "behind_panes", "behind_stripes", "drop_explained"]
 
 BELIEVED = 0.5
 """A map line with Bel(real) at least this explains the echoes on it (``unidentified.explained_distance``)."""
@@ -109,15 +118,17 @@ def add_unidentified(
     return done
 
 
-def drop_explained(bm: BeliefMap, config: Config) -> list[str]:
+def drop_explained(bm: BeliefMap, config: Config, changed: Iterable[str] | None = None) -> list[str]:
     """Remove the unidentified objects a believed line now explains (within ``unidentified.explained_distance``),
-    and those behind another object's pane (``unidentified.pane_width``, :func:`behind_panes`).
+    those behind another object's pane (``unidentified.pane_width``, :func:`behind_panes`) and those behind the
+    stripe of every pose that heard them (``unidentified.behind_depth``, :func:`behind_stripes`; the objects
+    the lines ``changed`` may hide, every object when None).
 
     An object placed where the map had no believed line may find one there as later
-    poses extend or confirm the lines: its echo is that line's. A pane heard by a later
-    pose may stand between an object and every pose that heard it. Nothing is removed
-    when ``explained_distance`` and ``pane_width`` are 0 (the paper's method). Returns
-    the removed ids.
+    poses extend or confirm the lines: its echo is that line's, or it lies behind the
+    line. A pane heard by a later pose may stand between an object and every pose that
+    heard it. Nothing is removed when ``explained_distance``, ``pane_width`` and
+    ``behind_depth`` are 0 (the paper's method). Returns the removed ids.
     """
     removed = _on_lines(bm, config.unidentified.explained_distance)
     for uid in removed:
@@ -125,7 +136,84 @@ def drop_explained(bm: BeliefMap, config: Config) -> list[str]:
     hidden = behind_panes(bm, config)
     for uid in hidden:
         bm.remove_point(uid)
-    return removed + hidden
+    behind = behind_stripes(bm, config, changed)
+    for uid in behind:
+        bm.remove_point(uid)
+    return removed + hidden + behind
+
+
+def behind_stripes(bm: BeliefMap, config: Config, changed: Iterable[str] | None = None) -> list[str]:
+    """The unidentified objects more than ``unidentified.behind_depth`` beyond the stripe's contour
+    (:func:`~evmap.maps.stripe_contour.stripe_bound` on the believed lines) of every pose that heard them.
+
+    A line believed after an object was made may show it to be a multiple reflection: the
+    sound came back from behind a surface the stripe measured. Only the objects that a
+    believed line of ``changed`` (ids; None: every line) may hide are judged: a path from
+    a pose that heard one to it passes within the contour's margin of the line, carried on
+    at both ends by ``window_width`` (a chord across a pane continues the wall). An object
+    a pose heard that the map does not remember the readings of is kept. None when
+    ``behind_depth`` is 0.
+    """
+    params = config.unidentified
+    if params.behind_depth <= 0:
+        return []
+    ids = bm.line_ids() if changed is None else (i for i in changed if i in bm and bm.is_line(i))
+    believed = [i for i in sorted(ids) if bm.mass(i).belief("real") >= BELIEVED]
+    if not believed:
+        return []
+    g, margin = bm.graph, FreeSpaceParams().margin
+    ends = [bm.ends(i) for i in believed]
+    p = np.array([g.nodes[a]["xy"] for a, _ in ends], dtype=float)
+    q = np.array([g.nodes[b]["xy"] for _, b in ends], dtype=float)
+    d = (q - p) / np.maximum(np.hypot(*(q - p).T), 1e-12)[:, None] * params.window_width
+    p, q = p - d, q + d
+    far = max(config.sensors.sonar.max_range, config.sensors.lsl.max_range) + params.merge_radius
+    near = set().union(
+        *(bm.near((*(np.minimum(a, b) - far), *(np.maximum(a, b) + far)), "points") for a, b in zip(p, q))
+    )
+    poses: dict[int, Sensed | None] = {}
+    pairs = []  # (object, its xy, pose) of every pose that heard an object near
+    for uid in sorted(near):
+        if g.nodes[uid]["kind"] != "unidentified":
+            continue
+        heard = sorted(_heard_from(bm, uid))
+        for k in heard:
+            if k not in poses:
+                poses[k] = pose_sensed(bm, k)
+        if heard and all(poses[k] is not None for k in heard):  # else a pose it cannot judge: kept
+            xy = np.asarray(g.nodes[uid]["xy"], dtype=float)
+            pairs.extend((uid, xy, k) for k in heard)
+    if not pairs:
+        return []
+    paths = shapely.linestrings([[poses[k].origin, xy] for _, xy, k in pairs])
+    walls = shapely.linestrings(np.stack([p, q], axis=1))
+    crossing, _ = shapely.STRtree(walls).query(paths, predicate="dwithin", distance=margin)
+    judged = {pairs[i][0] for i in crossing.tolist()}
+    bounds: dict[int, shapely.Geometry | None] = {}
+    inside: set[str] = set()
+    for uid, xy, k in pairs:
+        if uid not in judged or uid in inside:
+            continue
+        pose = poses[k]
+        assert pose is not None
+        if k not in bounds:
+            bounds[k] = _pose_bound(bm, pose, params, far)
+        to = xy - pose.origin
+        n = float(np.hypot(*to))
+        back = pose.origin + to * max(n - params.behind_depth - margin, 0.0) / max(n, 1e-12)
+        if bounds[k] is None or shapely.contains_xy(bounds[k], *back):
+            inside.add(uid)
+    return sorted(judged - inside)
+
+
+def _pose_bound(bm: BeliefMap, s: Sensed, params: UnidentifiedParams, far: float) -> shapely.Geometry | None:
+    """The contour of the pose ``s`` on the believed lines within ``far`` of it, out to ``far``."""
+    g = bm.graph
+    near = bm.near((*(s.origin - far), *(s.origin + far)), "lines")
+    ends = [bm.ends(i) for i in sorted(near) if bm.mass(i).belief("real") >= BELIEVED]
+    p = np.array([g.nodes[a]["xy"] for a, _ in ends], dtype=float).reshape(-1, 2)
+    q = np.array([g.nodes[b]["xy"] for _, b in ends], dtype=float).reshape(-1, 2)
+    return stripe_bound(s, p, q, params, far + 1.0)
 
 
 def behind_panes(bm: BeliefMap, config: Config) -> list[str]:
@@ -259,45 +347,14 @@ def _unexplained(
         free &= point_segment_distances(arc[..., None, :], p, q).min(axis=-1) > params.explained_distance
     sensed = pose_sensed(bm, pose_index) if params.behind_contour else None
     if sensed is not None:
-        shape = FreeSpaceParams(bridge=params.window_width)
-        surfaces = surface_rays(sensed, s.p[believed], s.q[believed], shape.margin, on=True)
-        on_wall = _in_line(s.p[believed], s.q[believed], shape.margin)
-        bound = contour_bound(surfaces, shape, float(actual.range[keep].max()) + 1.0, on_wall)
+        bound = stripe_bound(sensed, s.p[believed], s.q[believed], params, float(actual.range[keep].max()) + 1.0)
         if bound is not None:  # the arc point pulled back by the margins must lie inside the stripe's bound
-            back = actual.range[keep, None, None] - params.occlusion_margin - shape.margin
+            back = actual.range[keep, None, None] - params.occlusion_margin - FreeSpaceParams().margin
             inner = pose[:2] + np.maximum(back, 0.0) * _unit(angles)
             free &= shapely.contains_xy(bound, inner[..., 0], inner[..., 1])
     best = np.argmin(np.where(free, np.abs(steps), np.inf), axis=1)
     ok = free.any(axis=1)
     return keep[ok], arc[np.flatnonzero(ok), best[ok]]
-
-
-WALL_ANGLE = np.radians(10.0)
-"""A gap in the stripe is a pane in a wall when its chord is this parallel to the believed lines at both ends."""
-
-
-def _in_line(
-    p: NDArray[np.float64], q: NDArray[np.float64], margin: float
-) -> Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.bool_]]:
-    """Which chords a-b cross a gap in a wall: each end on a line p-q (within ``margin``) that the chord continues.
-
-    A gap between two walls meeting at a corner is no pane: its chord would cut the corner off.
-    """
-
-    def ok(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.bool_]:
-        if not len(p):
-            return np.zeros(len(a), dtype=bool)
-        chord = (b - a) / np.maximum(np.hypot(*(b - a).T), 1e-12)[:, None]
-        d = (q - p) / np.maximum(np.hypot(*(q - p).T), 1e-12)[:, None]
-        out = np.ones(len(a), dtype=bool)
-        for end in (a, b):
-            dist = point_segment_distances(end[:, None], p[None], q[None])  # (K, L)
-            near = dist.argmin(axis=1)
-            sin = np.abs(chord[:, 0] * d[near, 1] - chord[:, 1] * d[near, 0])
-            out &= (dist[np.arange(len(end)), near] <= margin) & (sin <= np.sin(WALL_ANGLE))
-        return out
-
-    return ok
 
 
 def _unit(angle: NDArray[np.float64]) -> NDArray[np.float64]:

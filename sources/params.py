@@ -186,3 +186,10 @@ class UnidentifiedParams(_Params):
         "at: an object whose every path to the poses that heard it crosses another's pane, and lies more than "
         "merge_radius beyond it, is a multiple reflection and is removed; 0, the paper's method: no panes",
     )
+    behind_depth: float = Field(
+        0.0,
+        ge=0,
+        description="an unidentified object lying more than this (m) beyond the stripe's contour on believed lines "
+        "(as behind_contour) of every pose that heard it is a multiple reflection and is removed, judged again as "
+        "lines become believed; 0, the paper's method: objects are judged when made only",
+    )
