@@ -239,9 +239,10 @@ class BeliefMap:
 
     # ----------------------------------------------------------------- spatial index
 
-    def near(self, bounds: Bounds, what: str = "all") -> set[str]:
+    def near(self, bounds: Bounds | NDArray[np.float64], what: str = "all") -> set[str]:
         """Ids of the ``"points"``, ``"lines"``, ``"obstacles"`` (lines and unidentified points) or ``"all"``
-        whose bounding boxes meet the box ``bounds`` (xmin, ymin, xmax, ymax) (:mod:`evmap.maps.map_index`)."""
+        whose bounding boxes meet the box ``bounds`` (xmin, ymin, xmax, ymax), or one of an (n, 4) array's
+        (:mod:`evmap.maps.map_index`)."""
         return self._objects.index.near(bounds, what)
 
     def extent(self) -> Bounds:

@@ -19,6 +19,7 @@ from collections.abc import Mapping
 
 import networkx as nx
 import numpy as np
+from numpy.typing import NDArray
 
 from evmap.maps.spatial import Bounds, SpatialIndex
 
@@ -37,17 +38,17 @@ class MapIndex:
         self._lines = lines
         self._indexes: dict[str, SpatialIndex] | None = None  # made on first use
 
-    def near(self, bounds: Bounds, what: str = "all") -> set[str]:
+    def near(self, bounds: Bounds | NDArray[np.float64], what: str = "all") -> set[str]:
         """Ids of the ``"points"``, ``"lines"``, ``"obstacles"`` (lines and unidentified points) or ``"all"``
-        whose bounding boxes meet the box ``bounds`` (xmin, ymin, xmax, ymax)."""
+        whose bounding boxes meet the box ``bounds`` (xmin, ymin, xmax, ymax), or one of the boxes of an (n, 4)
+        array (:meth:`~evmap.maps.spatial.SpatialIndex.query_any`: one pass however many the boxes)."""
+        if what not in ("all", "obstacles", "points", "lines"):
+            raise ValueError(f"what must be 'points', 'lines', 'obstacles' or 'all', got {what!r}")
         ix = self._made()
-        if what == "all":
-            return ix["points"].query(bounds) | ix["lines"].query(bounds)
-        if what == "obstacles":
-            return ix["lines"].query(bounds) | ix["targets"].query(bounds)
-        if what in ("points", "lines"):
-            return ix[what].query(bounds)
-        raise ValueError(f"what must be 'points', 'lines', 'obstacles' or 'all', got {what!r}")
+        names = {"all": ("points", "lines"), "obstacles": ("lines", "targets")}.get(what, (what,))
+        many = np.ndim(bounds) == 2
+        found = [ix[name].query_any(np.asarray(bounds)) if many else ix[name].query(bounds) for name in names]
+        return found[0] | found[1] if len(found) > 1 else found[0]
 
     def extent(self) -> Bounds:
         """A box holding every point the map has held (``(inf, inf, -inf, -inf)`` before the first)."""

@@ -169,7 +169,7 @@ def touched_segments(
     if not space.is_empty:
         boxes.append(shapely.bounds(shapely.get_parts(space)))
     grown = np.concatenate(boxes).reshape(-1, 4) + np.array([-margin, -margin, margin, margin])
-    found = np.unique(np.concatenate([new, *(store.near(tuple(box)) for box in grown.tolist())]))
+    found = np.unique(np.concatenate([new, store.near(grown)]))
     if sensed is not None and len(sensed.bearing):
         reach = min(sensed.reach, config.sensors.lsl.max_range)
         seen = unsettled(bm, np.setdiff1d(store.near((*(sensed.origin - reach), *(sensed.origin + reach))), found))

@@ -133,10 +133,7 @@ def _candidate_lines(bm: BeliefMap, merged: Merged, dissolved: set[str], config:
     """The map's lines, but the ``dissolved``, that are merging's candidates with one of the ``merged`` lines."""
     reach = math.hypot(config.merge.gap, config.merge.distance)
     lo, hi = np.minimum(merged.p, merged.q) - reach, np.maximum(merged.p, merged.q) + reach
-    near: set[str] = set()
-    for box in np.hstack([lo, hi]).tolist():
-        near |= bm.near(tuple(box), "lines")
-    near -= dissolved
+    near = bm.near(np.hstack([lo, hi]), "lines") - dissolved
     if not near:
         return set()
     ids = sorted(near)
@@ -318,7 +315,8 @@ def _merged_line(
         "length": float(base.length[k]),
         "mass": mass.to_dict(),
     }
-    store.write(members, line=lid)
+    if (store.line[members] != lid).any():
+        store.write(members, line=lid)
     if seen[k] > CONSOLIDATE_POSES and len(members) > 1:
         row = store.consolidate(members, merged.p[k], merged.q[k], lid, int(seen[k]))
         store.write([row], relation=base.relation[k], mass=base.fused[k], conflict=base.conflict[k], eliminated=False)

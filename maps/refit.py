@@ -32,11 +32,9 @@ SURFACE_KINDS = ("corner", "endpoint")
 
 def surface_points_near(bm: BeliefMap, xy: NDArray[np.float64], reach: float) -> list[str]:
     """The corners and end points (sorted) in the boxes reaching ``reach`` around each of the points ``xy``:
-    one small query per point, so the cost is what is near them however far apart they are."""
+    the cells of each small box, so the cost is what is near them however far apart they are."""
     g = bm.graph
-    found: set[str] = set()
-    for x, y in xy.tolist():
-        found |= bm.near((x - reach, y - reach, x + reach, y + reach), "points")
+    found = bm.near(np.hstack([xy - reach, xy + reach]), "points") if len(xy) else set()
     return sorted(n for n in found if g.nodes[n]["kind"] in SURFACE_KINDS)
 
 

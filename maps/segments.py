@@ -235,16 +235,16 @@ class SegmentStore:
         if self._journal is checkpoint.journal:
             self._journal = None
 
-    def near(self, bounds: tuple[float, float, float, float]) -> NDArray[np.intp]:
+    def near(self, bounds: tuple[float, float, float, float] | NDArray[np.float64]) -> NDArray[np.intp]:
         """Ids of the segments not absorbed (nor forgotten, :meth:`forget`) whose bounding boxes meet ``bounds`` =
-        (xmin, ymin, xmax, ymax), sorted.
+        (xmin, ymin, xmax, ymax), or one of the boxes of an (n, 4) array, sorted.
 
         A spatial index (:class:`~evmap.maps.spatial.SpatialIndex`): it costs what the box holds.
         """
         if self._index is None:
             live = np.flatnonzero(self.role != "absorbed")
             self._index = SpatialIndex.from_boxes([str(i) for i in live.tolist()], _boxes(self.p[live], self.q[live]))
-        keys = self._index.query(bounds)
+        keys = self._index.query_any(np.asarray(bounds)) if np.ndim(bounds) == 2 else self._index.query(bounds)
         return np.sort(np.fromiter(map(int, keys), dtype=np.intp, count=len(keys)))
 
     def seen_from(self, pose: int) -> NDArray[np.intp]:

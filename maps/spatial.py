@@ -17,7 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["CELL", "WIDE_CELLS", "Bounds", "SpatialIndex"]
+__all__ = ["CELL", "QUERY_PAIRS", "WIDE_CELLS", "Bounds", "SpatialIndex"]
 
 Bounds = tuple[float, float, float, float]
 """A box ``(xmin, ymin, xmax, ymax)``."""
@@ -27,6 +27,9 @@ CELL = 2.0
 
 WIDE_CELLS = 64
 """A box meeting more cells than this is kept in the wide list instead of the grid."""
+
+QUERY_PAIRS = 1 << 18
+"""How many key-box tests :meth:`SpatialIndex.query_any` makes in one array operation, at most about."""
 
 
 class SpatialIndex:
@@ -45,6 +48,7 @@ class SpatialIndex:
             raise ValueError(f"cell must be a positive size, got {cell!r}")
         self._cell = float(cell)
         self._boxes: dict[str, Bounds] = {}  # every key's current box
+        self._spans: dict[str, list[tuple[int, int]] | None] = {}  # the cells of each key's box, None: wide
         self._cells: dict[tuple[int, int], set[str]] = {}  # the keys filed under each cell
         self._wide: set[str] = set()  # the keys whose boxes meet too many cells
         self._extent = [math.inf, math.inf, -math.inf, -math.inf]  # grows with the boxes, never shrinks
@@ -65,12 +69,15 @@ class SpatialIndex:
 
     def insert(self, key: str, bounds: Bounds) -> None:
         """Add ``key`` with its bounding box (a key already present is moved)."""
+        box = (float(bounds[0]), float(bounds[1]), float(bounds[2]), float(bounds[3]))
         if key in self._boxes:
+            if self._boxes[key] == box:
+                return  # where it is already
             self.remove(key)
-        box = self._boxes[key] = (float(bounds[0]), float(bounds[1]), float(bounds[2]), float(bounds[3]))
+        self._boxes[key] = box
         e = self._extent
         self._extent = [min(e[0], box[0]), min(e[1], box[1]), max(e[2], box[2]), max(e[3], box[3])]
-        cells = self._span(box)
+        cells = self._spans[key] = self._span(box)
         if cells is None:
             self._wide.add(key)
             return
@@ -79,8 +86,8 @@ class SpatialIndex:
 
     def remove(self, key: str) -> None:
         """Forget ``key`` (a KeyError if it is not there)."""
-        box = self._boxes.pop(key)
-        cells = self._span(box)
+        del self._boxes[key]
+        cells = self._spans.pop(key)
         if cells is None:
             self._wide.discard(key)
             return
@@ -100,6 +107,48 @@ class SpatialIndex:
                 candidates |= keys
         boxes = self._boxes
         return {k for k in candidates if (b := boxes[k])[0] <= xmax and b[2] >= xmin and b[1] <= ymax and b[3] >= ymin}
+
+    def query_any(self, boxes: NDArray[np.float64]) -> set[str]:
+        """The keys whose boxes meet one of the ``boxes`` ((n, 4), rows as ``bounds``): the union of a
+        :meth:`query` of each, each key tested once against all the boxes in one array operation.
+
+        >>> index = SpatialIndex.from_boxes(["a", "b", "c"], np.array([[0, 0, 1, 1], [5, 5, 6, 6], [9, 9, 9, 9]]))
+        >>> sorted(index.query_any(np.array([[0.5, 0.5, 0.6, 0.6], [6, 6, 7, 7]])))
+        ['a', 'b']
+        """
+        boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+        candidates = set(self._wide)
+        cells = self._cells
+        lo, hi = np.floor(boxes[:, :2] / self._cell), np.floor(boxes[:, 2:] / self._cell)
+        whole = np.hstack([boxes[:, :2].min(axis=0), boxes[:, 2:].max(axis=0)]) if len(boxes) else boxes
+        if len(boxes) > 1 and np.prod(hi.max(axis=0) - lo.min(axis=0) + 1) <= np.sum(np.prod(hi - lo + 1, axis=1)):
+            boxes_to_gather = [whole.tolist()]  # the boxes crowd together: the cells of the box holding them all
+        else:
+            boxes_to_gather = boxes.tolist()
+        for box in boxes_to_gather:
+            span = self._span(box, len(cells))
+            if span is None:
+                candidates = set(self._boxes)
+                break
+            for cell in span:
+                keys = cells.get(cell)
+                if keys:
+                    candidates |= keys
+        keys = list(candidates)
+        if not keys:
+            return set()
+        held = np.array([self._boxes[k] for k in keys], dtype=np.float64)
+        meets = np.zeros(len(keys), dtype=bool)
+        step = max(1, QUERY_PAIRS // len(keys))  # at most about QUERY_PAIRS tests at a time
+        for i in range(0, len(boxes), step):
+            b = boxes[i : i + step]
+            meets |= (
+                (held[:, None, 0] <= b[:, 2])
+                & (held[:, None, 2] >= b[:, 0])
+                & (held[:, None, 1] <= b[:, 3])
+                & (held[:, None, 3] >= b[:, 1])
+            ).any(axis=1)
+        return {keys[i] for i in np.flatnonzero(meets).tolist()}
 
     def extent(self) -> Bounds:
         """A box holding every box the index has held (``(inf, inf, -inf, -inf)`` before the first)."""

@@ -104,6 +104,9 @@ def test_near_finds_the_objects_whose_boxes_meet_a_box():
     bm.add_line("L1", "A", "B", mass(1.0))
     assert sorted(bm.near((3.5, -0.5, 4.5, 0.5))) == ["B", "L1"]
     assert sorted(bm.near((3.5, -0.5, 4.5, 0.5), "lines")) == ["L1"]
+    boxes = np.array([(3.5, -0.5, 4.5, 0.5), (-0.5, -0.5, 0.5, 0.5), (9, 9, 10, 10)])
+    assert bm.near(boxes, "points") == {"A", "B"} and bm.near(boxes) == {"A", "B", "L1"}  # any of the boxes
+    assert bm.near(boxes[2:]) == set() and bm.near(np.zeros((0, 4)), "lines") == set()
 
 
 def test_remove_line_then_point(bm):

@@ -31,6 +31,11 @@ def test_append_grows_and_columns_are_read_only_views_written_by_the_store():
     with pytest.raises(IndexError, match="not all among the 100 segments"):
         store.write([100], line="L1")
     assert store.near((10.5, -1, 12.5, 2)).tolist() == [11, 12]
+    assert store.near(np.array([(10.5, -1, 12.5, 2), (39.5, -1, 40.2, 2), (10.5, -1, 11.5, 2)])).tolist() == [
+        11,
+        12,
+        40,
+    ]
 
 
 def test_restore_puts_back_what_was_written_since_the_checkpoint_and_drops_the_rows_appended():

@@ -1,4 +1,5 @@
-"""The spatial index: after any changes, a query finds exactly the boxes that meet it."""
+"""The spatial index: after any changes, a query finds exactly the boxes that meet it, and a query of many
+boxes the union of their queries."""
 
 import numpy as np
 from hypothesis import given
@@ -32,8 +33,20 @@ def test_queries_find_exactly_the_boxes_that_meet_them(start, changes, queries):
         assert len(index) == len(boxes) and all(k in index for k in boxes)
     for q in queries:
         assert index.query(q) == {k for k, b in boxes.items() if meets(b, q)}
+    assert index.query_any(np.array(queries)) == set().union(*(index.query(q) for q in queries))
+    assert index.query_any(np.zeros((0, 4))) == set()
     if boxes:
         lo = np.array(list(boxes.values())).min(axis=0)
         hi = np.array(list(boxes.values())).max(axis=0)
         xmin, ymin, xmax, ymax = index.extent()
         assert xmin <= lo[0] and ymin <= lo[1] and xmax >= hi[2] and ymax >= hi[3]
+
+
+def test_many_boxes_are_tested_in_steps_as_in_one():
+    rng = np.random.default_rng(3)
+    lo = rng.uniform(-100, 100, (500, 2))
+    held = np.hstack([lo, lo + rng.uniform(0, 30, (500, 2))])  # some wide enough for the wide list
+    index = SpatialIndex.from_boxes([f"k{i}" for i in range(500)], held)
+    qlo = rng.uniform(-100, 100, (2000, 2))
+    queries = np.hstack([qlo, qlo + rng.uniform(0, 3, (2000, 2))])  # 500 x 2000 tests: more than one step
+    assert index.query_any(queries) == set().union(*(index.query(tuple(q)) for q in queries.tolist()))
