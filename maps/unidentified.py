@@ -168,9 +168,7 @@ def behind_stripes(bm: BeliefMap, config: Config, changed: Iterable[str] | None 
     d = (q - p) / np.maximum(np.hypot(*(q - p).T), 1e-12)[:, None] * params.window_width
     p, q = p - d, q + d
     far = max(config.sensors.sonar.max_range, config.sensors.lsl.max_range) + params.merge_radius
-    near = set().union(
-        *(bm.near((*(np.minimum(a, b) - far), *(np.maximum(a, b) + far)), "points") for a, b in zip(p, q))
-    )
+    near = bm.near(np.hstack([np.minimum(p, q) - far, np.maximum(p, q) + far]), "points")
     poses: dict[int, Sensed | None] = {}
     pairs = []  # (object, its xy, pose) of every pose that heard an object near
     for uid in sorted(near):
