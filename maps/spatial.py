@@ -119,12 +119,12 @@ class SpatialIndex:
         boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
         candidates = set(self._wide)
         cells = self._cells
-        lo, hi = np.floor(boxes[:, :2] / self._cell), np.floor(boxes[:, 2:] / self._cell)
-        whole = np.hstack([boxes[:, :2].min(axis=0), boxes[:, 2:].max(axis=0)]) if len(boxes) else boxes
-        if len(boxes) > 1 and np.prod(hi.max(axis=0) - lo.min(axis=0) + 1) <= np.sum(np.prod(hi - lo + 1, axis=1)):
-            boxes_to_gather = [whole.tolist()]  # the boxes crowd together: the cells of the box holding them all
-        else:
-            boxes_to_gather = boxes.tolist()
+        boxes_to_gather = boxes.tolist()
+        if len(boxes) > 1:
+            lo, hi = np.floor(boxes[:, :2] / self._cell), np.floor(boxes[:, 2:] / self._cell)
+            if np.prod(hi.max(axis=0) - lo.min(axis=0) + 1) <= np.sum(np.prod(hi - lo + 1, axis=1)):
+                # the boxes crowd together: the cells of the box holding them all
+                boxes_to_gather = [[*boxes[:, :2].min(axis=0).tolist(), *boxes[:, 2:].max(axis=0).tolist()]]
         for box in boxes_to_gather:
             span = self._span(box, len(cells))
             if span is None:

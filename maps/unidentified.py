@@ -158,13 +158,10 @@ def behind_stripes(bm: BeliefMap, config: Config, changed: Iterable[str] | None 
     if params.behind_depth <= 0:
         return []
     ids = bm.line_ids() if changed is None else (i for i in changed if i in bm and bm.is_line(i))
-    believed = [i for i in sorted(ids) if bm.mass(i).belief("real") >= BELIEVED]
-    if not believed:
+    p, q = _believed_ends(bm, ids)
+    if not len(p):
         return []
     g, margin = bm.graph, FreeSpaceParams().margin
-    ends = [bm.ends(i) for i in believed]
-    p = np.array([g.nodes[a]["xy"] for a, _ in ends], dtype=float)
-    q = np.array([g.nodes[b]["xy"] for _, b in ends], dtype=float)
     d = (q - p) / np.maximum(np.hypot(*(q - p).T), 1e-12)[:, None] * params.window_width
     p, q = p - d, q + d
     far = max(config.sensors.sonar.max_range, config.sensors.lsl.max_range) + params.merge_radius
@@ -206,12 +203,18 @@ def behind_stripes(bm: BeliefMap, config: Config, changed: Iterable[str] | None 
 
 def _pose_bound(bm: BeliefMap, s: Sensed, params: UnidentifiedParams, far: float) -> shapely.Geometry | None:
     """The contour of the pose ``s`` on the believed lines within ``far`` of it, out to ``far``."""
+    p, q = _believed_ends(bm, bm.near((*(s.origin - far), *(s.origin + far)), "lines"))
+    return stripe_bound(s, p, q, params, far + 1.0)
+
+
+def _believed_ends(bm: BeliefMap, ids: Iterable[str]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The end points p, q ((L, 2) each, in id order) of the lines ``ids`` whose Bel(real) is at least
+    :data:`BELIEVED`."""
     g = bm.graph
-    near = bm.near((*(s.origin - far), *(s.origin + far)), "lines")
-    ends = [bm.ends(i) for i in sorted(near) if bm.mass(i).belief("real") >= BELIEVED]
+    ends = [bm.ends(i) for i in sorted(ids) if bm.mass(i).belief("real") >= BELIEVED]
     p = np.array([g.nodes[a]["xy"] for a, _ in ends], dtype=float).reshape(-1, 2)
     q = np.array([g.nodes[b]["xy"] for _, b in ends], dtype=float).reshape(-1, 2)
-    return stripe_bound(s, p, q, params, far + 1.0)
+    return p, q
 
 
 def behind_panes(bm: BeliefMap, config: Config) -> list[str]:
@@ -307,18 +310,11 @@ def _on_lines(bm: BeliefMap, distance: float) -> list[str]:
     """The unidentified objects within ``distance`` of a believed map line (none when ``distance`` is 0)."""
     if distance <= 0:
         return []
-    g = bm.graph
     found = []
     for u in bm.unidentified():
         x, y = u.xy
-        near = bm.near((x - distance, y - distance, x + distance, y + distance), "lines")
-        near = [n for n in sorted(near) if bm.mass(n).belief("real") >= BELIEVED]
-        if not near:
-            continue
-        ends = [bm.ends(n) for n in near]
-        p = np.array([g.nodes[a]["xy"] for a, _ in ends], dtype=float)
-        q = np.array([g.nodes[b]["xy"] for _, b in ends], dtype=float)
-        if point_segment_distances(np.array([x, y]), p, q).min() <= distance:
+        p, q = _believed_ends(bm, bm.near((x - distance, y - distance, x + distance, y + distance), "lines"))
+        if len(p) and point_segment_distances(np.array([x, y]), p, q).min() <= distance:
             found.append(u.id)
     return found
 
