@@ -11,9 +11,11 @@ corner's first centroid stays and the other is left free).
 
 With ``drawn_apart`` (:class:`~evmap.sources.params.CornerParams`), the lines
 drawn from a corner to their other ends must stay ``min_angle_deg`` from
-parallel too: where two come closer (a short piece folded onto a wall, a
-bending wall drawn straight), the end of the line the corner turns most from
-its own direction leaves it, and the corner is found again without it.
+parallel too, and each within ``min_angle_deg`` of its own direction: where
+two come closer (a short piece folded onto a wall, a bending wall drawn
+straight), or a corner turns a line further (a piece of a few centimetres
+drawn across or back along itself), the end of the line the corner turns most
+from its own direction leaves it, and the corner is found again without it.
 
 Only end points are compared: an end point near the middle of another line
 (a T-junction) makes no corner, and parallel lines whose ends touch make none
@@ -162,17 +164,19 @@ def _folded(
     ends: NDArray[np.float64], member: NDArray[np.intp], comp: NDArray[np.intp], u: NDArray[np.float64], cos_max: float
 ) -> NDArray[np.intp]:
     """One end of each corner whose lines, drawn from it (at the centroid of its ``member`` ends) to their other
-    ends, come within the corner angle of parallel (``cos_max``): the end of the line the corner turns most
-    from its direction ``u``. A line drawn to no length turns most."""
+    ends, come within the corner angle of parallel (``cos_max``), or one of which is drawn turned from its own
+    direction ``u`` by more than the corner angle: the end of the line the corner turns most. A line drawn to
+    no length turns most."""
     _, corner = np.unique(comp[member], return_inverse=True)
     xy = _group_mean(ends[member], corner, corner.max(initial=-1) + 1)
     drawn = ends[member ^ 1] - xy[corner]
     length = np.hypot(*drawn.T)
     with np.errstate(invalid="ignore", divide="ignore"):
         w = drawn / length[:, None]
-    turn = np.where(length > 0, 1 - np.abs(np.sum(w * u[member // 2], axis=1)), np.inf)
+    along = np.sum(w * u[member // 2], axis=1) * np.where(member % 2, -1, 1)  # drawn from end p toward q: +u
+    turn = np.where(length > 0, 1 - along, np.inf)
     order = np.argsort(corner, kind="stable")  # a corner's ends in a row
-    bad = np.zeros(len(member), dtype=bool)
+    bad = ~(along >= cos_max - 2 * _EPS)  # turned by more than the corner angle (a line drawn to no length too)
     for step in range(1, len(order)):
         a, b = order[:-step], order[step:]
         same = corner[a] == corner[b]

@@ -209,16 +209,19 @@ def _corner_place(
     if len(reached) < degree:
         return None
     place = sum(x for x, _ in xy) / degree, sum(y for _, y in xy) / degree
-    if drawn_apart and _drawn_close(place, near.far[rows].tolist(), cos_max):
+    if drawn_apart and _drawn_close(place, xy, near.far[rows].tolist(), cos_max):
         return None
     return place
 
 
-def _drawn_close(place: tuple[float, float], far: list[list[float]], cos_max: float) -> bool:
+def _drawn_close(place: tuple[float, float], ends: list[list[float]], far: list[list[float]], cos_max: float) -> bool:
     """Whether two lines drawn from ``place`` to their ``far`` ends come within the corner angle of parallel
-    (``cos_max``), or one is drawn to no length."""
+    (``cos_max``), or one is drawn turned from its own direction (from its end at the corner, ``ends``, to its far
+    end) by more than that angle, or to no length."""
     drawn = [(x - place[0], y - place[1]) for x, y in far]
     if not all(math.hypot(*d) > 0 for d in drawn):
         return True
     w = [(dx / math.hypot(dx, dy), dy / math.hypot(dx, dy)) for dx, dy in drawn]
-    return any(abs(a[0] * b[0] + a[1] * b[1]) > cos_max for i, a in enumerate(w) for b in w[i + 1 :])
+    own = [(fx - ex, fy - ey) for (ex, ey), (fx, fy) in zip(ends, far, strict=True)]
+    turned = any((a[0] * o[0] + a[1] * o[1]) / math.hypot(*o) < cos_max - 2e-9 for a, o in zip(w, own, strict=True))
+    return turned or any(abs(a[0] * b[0] + a[1] * b[1]) > cos_max for i, a in enumerate(w) for b in w[i + 1 :])

@@ -144,6 +144,21 @@ def test_a_folded_piece_leaves_the_corner_of_two_walls_as_it_is():
     assert c.corner_of[2].tolist() == [-1, -1]
 
 
+def test_a_piece_the_corner_would_turn_leaves_it_when_lines_are_drawn_apart():
+    """A 4 cm piece at 76 deg whose end is 4 cm past a wall's end: at their midpoint the piece would be drawn at
+    53 deg, turned 23 deg; drawn apart, both stay free (and a wall's end, turned by no corner, is not)."""
+    p, q = np.array([[0.0, 0.0], [1.04, 0.0]]), np.array([[1.0, 0.0], [1.05, 0.04]])
+    paper = find_corners(p, q)
+    assert paper.ends[0].tolist() == [[0, 1], [1, 0]]
+    drawn = paper.q[1] - paper.p[1]
+    assert 52 < np.degrees(np.arctan2(drawn[1], drawn[0])) < 54
+    apart = find_corners(p, q, CornerParams(drawn_apart=True))
+    assert apart.xy.shape == (0, 2)
+    np.testing.assert_array_equal([apart.p, apart.q], [p, q])
+    walls = find_corners([[0.0, 0.0], [1.02, 0.0]], [[1.0, 0.0], [1.02, 1.0]], CornerParams(drawn_apart=True))
+    assert walls.ends[0].tolist() == [[0, 1], [1, 0]]
+
+
 def test_empty_input_and_bad_viewpoint():
     c = find_corners(np.zeros((0, 2)), np.zeros((0, 2)), viewpoint=(0, 0))
     assert c.xy.shape == (0, 2) and c.ends == [] and c.free.shape == (0, 2) and c.shape.shape == (0,)
@@ -208,12 +223,15 @@ def test_corner_properties(lines, drawn_apart):
         assert (shared | dropped).all()
         return
     # Drawn apart: the lines drawn from each corner to their other ends stay at least the corner angle from
-    # parallel.
+    # parallel, and within it of their own directions.
     for j, pairs in enumerate(c.ends):
         far = ends[pairs[:, 0], 1 - pairs[:, 1]] - c.xy[j]
         w = far / np.linalg.norm(far, axis=1)[:, None]
         cos = np.abs(w @ w.T)[np.triu_indices(len(w), 1)]
         assert (cos <= np.cos(np.radians(params.min_angle_deg)) + 1e-9).all()
+        own = ends[pairs[:, 0], 1 - pairs[:, 1]] - ends[pairs[:, 0], pairs[:, 1]]
+        along = np.sum(w * own, axis=1) / np.linalg.norm(own, axis=1)
+        assert (along >= np.cos(np.radians(params.min_angle_deg)) - 1e-9).all()
 
 
 @given(line_sets(), st.randoms(use_true_random=False), st.booleans())
