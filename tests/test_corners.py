@@ -146,7 +146,7 @@ def test_a_folded_piece_leaves_the_corner_of_two_walls_as_it_is():
 
 def test_a_piece_the_corner_would_turn_leaves_it_when_lines_are_drawn_apart():
     """A 4 cm piece at 76 deg whose end is 4 cm past a wall's end: at their midpoint the piece would be drawn at
-    53 deg, turned 23 deg; drawn apart, both stay free (and a wall's end, turned by no corner, is not)."""
+    53 deg, turned 23 deg; drawn apart, both stay free. Two walls at right angles keep their corner."""
     p, q = np.array([[0.0, 0.0], [1.04, 0.0]]), np.array([[1.0, 0.0], [1.05, 0.04]])
     paper = find_corners(p, q)
     assert paper.ends[0].tolist() == [[0, 1], [1, 0]]
