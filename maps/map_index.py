@@ -41,13 +41,12 @@ class MapIndex:
     def near(self, bounds: Bounds | NDArray[np.float64], what: str = "all") -> set[str]:
         """Ids of the ``"points"``, ``"lines"``, ``"obstacles"`` (lines and unidentified points) or ``"all"``
         whose bounding boxes meet the box ``bounds`` (xmin, ymin, xmax, ymax), or one of the boxes of an (n, 4)
-        array (:meth:`~evmap.maps.spatial.SpatialIndex.query_any`: one pass however many the boxes)."""
+        array (:meth:`~evmap.maps.spatial.SpatialIndex.query`: one pass however many the boxes)."""
         if what not in ("all", "obstacles", "points", "lines"):
             raise ValueError(f"what must be 'points', 'lines', 'obstacles' or 'all', got {what!r}")
         ix = self._made()
         names = {"all": ("points", "lines"), "obstacles": ("lines", "targets")}.get(what, (what,))
-        many = np.ndim(bounds) == 2
-        found = [ix[name].query_any(np.asarray(bounds)) if many else ix[name].query(bounds) for name in names]
+        found = [ix[name].query(bounds) for name in names]
         return found[0] | found[1] if len(found) > 1 else found[0]
 
     def extent(self) -> Bounds:

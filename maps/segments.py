@@ -244,7 +244,7 @@ class SegmentStore:
         if self._index is None:
             live = np.flatnonzero(self.role != "absorbed")
             self._index = SpatialIndex.from_boxes([str(i) for i in live.tolist()], _boxes(self.p[live], self.q[live]))
-        keys = self._index.query_any(np.asarray(bounds)) if np.ndim(bounds) == 2 else self._index.query(bounds)
+        keys = self._index.query(bounds)
         return np.sort(np.fromiter(map(int, keys), dtype=np.intp, count=len(keys)))
 
     def seen_from(self, pose: int) -> NDArray[np.intp]:

@@ -29,7 +29,7 @@ WIDE_CELLS = 64
 """A box meeting more cells than this is kept in the wide list instead of the grid."""
 
 QUERY_PAIRS = 1 << 18
-"""How many key-box tests :meth:`SpatialIndex.query_any` makes in one array operation, at most about."""
+"""How many key-box tests :meth:`SpatialIndex.query` of many boxes makes in one array operation, at most about."""
 
 
 class SpatialIndex:
@@ -97,8 +97,16 @@ class SpatialIndex:
             if not keys:
                 del self._cells[cell]
 
-    def query(self, bounds: Bounds) -> set[str]:
-        """The keys whose boxes meet the box ``bounds`` (edges touching count)."""
+    def query(self, bounds: Bounds | NDArray[np.float64]) -> set[str]:
+        """The keys whose boxes meet the box ``bounds`` (edges touching count), or one of the boxes of an (n, 4)
+        array (the union of a query of each, each key tested once against all the boxes in one array operation).
+
+        >>> index = SpatialIndex.from_boxes(["a", "b", "c"], np.array([[0, 0, 1, 1], [5, 5, 6, 6], [9, 9, 9, 9]]))
+        >>> sorted(index.query(np.array([[0.5, 0.5, 0.6, 0.6], [6, 6, 7, 7]])))
+        ['a', 'b']
+        """
+        if isinstance(bounds, np.ndarray) and bounds.ndim == 2:
+            return self._query_many(bounds)
         xmin, ymin, xmax, ymax = bounds
         cells = self._span(bounds, len(self._cells))
         candidates = set(self._wide)
@@ -108,15 +116,9 @@ class SpatialIndex:
         boxes = self._boxes
         return {k for k in candidates if (b := boxes[k])[0] <= xmax and b[2] >= xmin and b[1] <= ymax and b[3] >= ymin}
 
-    def query_any(self, boxes: NDArray[np.float64]) -> set[str]:
-        """The keys whose boxes meet one of the ``boxes`` ((n, 4), rows as ``bounds``): the union of a
-        :meth:`query` of each, each key tested once against all the boxes in one array operation.
-
-        >>> index = SpatialIndex.from_boxes(["a", "b", "c"], np.array([[0, 0, 1, 1], [5, 5, 6, 6], [9, 9, 9, 9]]))
-        >>> sorted(index.query_any(np.array([[0.5, 0.5, 0.6, 0.6], [6, 6, 7, 7]])))
-        ['a', 'b']
-        """
-        boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    def _query_many(self, boxes: NDArray[np.float64]) -> set[str]:
+        """:meth:`query` of the boxes (n, 4)."""
+        boxes = boxes.astype(np.float64, copy=False)
         candidates = set(self._wide)
         cells = self._cells
         boxes_to_gather = boxes.tolist()

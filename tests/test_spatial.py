@@ -33,8 +33,8 @@ def test_queries_find_exactly_the_boxes_that_meet_them(start, changes, queries):
         assert len(index) == len(boxes) and all(k in index for k in boxes)
     for q in queries:
         assert index.query(q) == {k for k, b in boxes.items() if meets(b, q)}
-    assert index.query_any(np.array(queries)) == set().union(*(index.query(q) for q in queries))
-    assert index.query_any(np.zeros((0, 4))) == set()
+    assert index.query(np.array(queries).reshape(-1, 4)) == set().union(*(index.query(q) for q in queries))
+    assert index.query(np.zeros((0, 4))) == set()
     if boxes:
         lo = np.array(list(boxes.values())).min(axis=0)
         hi = np.array(list(boxes.values())).max(axis=0)
@@ -49,4 +49,4 @@ def test_many_boxes_are_tested_in_steps_as_in_one():
     index = SpatialIndex.from_boxes([f"k{i}" for i in range(500)], held)
     qlo = rng.uniform(-100, 100, (2000, 2))
     queries = np.hstack([qlo, qlo + rng.uniform(0, 3, (2000, 2))])  # 500 x 2000 tests: more than one step
-    assert index.query_any(queries) == set().union(*(index.query(tuple(q)) for q in queries.tolist()))
+    assert index.query(queries) == set().union(*(index.query(tuple(q)) for q in queries.tolist()))
