@@ -155,6 +155,11 @@ def _local_cluster(n: int) -> Iterator[Any]:
     # in one process: 90 times the page faults, 0.5 -> 7-8 s of system time, 10-25 % more wall time)
     spawn_environ = dask.config.get("distributed.nanny.pre-spawn-environ")
     env = {**os.environ, **{k: str(v) for k, v in spawn_environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}}
+    # and no statistical profiler: a worker samples its stack every 10 ms and keeps a call tree per second for the
+    # last 1,000 seconds (benchmarks/bench_memory.py, 1,000 worlds: the largest worker 456 MB with it, 378 MB
+    # without; the workers' floors rose 204 -> 299 and 226 -> 304 MB over the run with it, 206 -> 224 and
+    # 210 -> 226 MB without)
+    env["DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED"] = "False"
     procs: list[subprocess.Popen[bytes]] = []
     try:
         for _ in range(n):
