@@ -23,15 +23,11 @@ from typing import Any
 
 __all__ = [
     "CONNECT_TIMEOUT",
-    "LOCAL_SCHEDULERS",
     "WORKER_DEATH_TIMEOUT",
     "WORKER_STOP_TIMEOUT",
     "executor",
     "interrupts_between_waits",
 ]
-
-LOCAL_SCHEDULERS = ("synchronous", "threads", "processes")
-"""Local schedulers accepted by ``scheduler`` besides a Dask scheduler's address."""
 
 CONNECT_TIMEOUT = 2
 """Seconds to reach a Dask scheduler before giving up (retrying meanwhile): one that is up answers in milliseconds,
