@@ -20,6 +20,12 @@ window in it) makes its object on the part beside the line. An object that a
 believed line comes to explain as later poses extend the lines is removed
 (:func:`drop_explained`).
 
+With ``unidentified.masked_aim``, an object is placed where the sonar model
+says its target lies (:func:`reflector_bearings`), not at its RCD's direction:
+the sonar reports the first echo, so a Type II RCD is cut on its shorter
+neighbour's side by a nearer echo (a corner heard beside a nearer wall), and
+its target lies toward that side.
+
 With ``unidentified.pane_width``, a believed object that a pose's stripe saw
 through (no stripe point near it) is also a pane that width across, square to
 the bearing that pose heard it at (a glass pane heard at normal incidence: the
@@ -53,13 +59,14 @@ from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.maps.stripe_contour import stripe_bound
 from evmap.sources.config_model import Config
 from evmap.sources.geometry import point_segment_distances
-from evmap.sources.params import UnidentifiedParams
-from evmap.sources.rcd import TYPE_IV, TYPE_NAMES
+from evmap.sources.params import SonarParams, UnidentifiedParams
+from evmap.sources.rcd import TYPE_II, TYPE_IV, TYPE_NAMES, Rcds
+from evmap.sources.sim.sonar import echo_halfwidth
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["BELIEVED", "add_unidentified", "behind_panes", "behind_stripes", "drop_explained"]
+__all__ = ["BELIEVED", "add_unidentified", "behind_panes", "behind_stripes", "drop_explained", "reflector_bearings"]
 
 BELIEVED = 0.5
 """A map line with Bel(real) at least this explains the echoes on it (``unidentified.explained_distance``)."""
@@ -78,10 +85,11 @@ def add_unidentified(
     g = bm.graph
     keep = unmatched[actual.type[unmatched] != TYPE_IV]
     keep = keep[np.argsort(actual.type[keep], kind="stable")]  # the strongest evidence first
-    targets = pose[:2] + actual.range[keep, None] * _unit(actual.direction[keep])
     params = config.unidentified
+    aim = reflector_bearings(actual, keep, check.predicted_scan.params) if params.masked_aim else actual.direction[keep]
+    targets = pose[:2] + actual.range[keep, None] * _unit(aim)
     if (params.explained_distance > 0 or params.behind_contour) and len(keep):  # the map's own echoes are no objects
-        keep, targets = _unexplained(bm, check, pose, pose_index, keep, config)
+        keep, targets = _unexplained(bm, check, pose, pose_index, keep, aim, config)
     stage = config.stage_sources("unidentified")
     rows = [source.masses({"rcd_type": np.array([TYPE_NAMES[t] for t in actual.type[keep]])}) for source in stage]
     radius = config.unidentified.merge_radius
@@ -320,19 +328,26 @@ def _on_lines(bm: BeliefMap, distance: float) -> list[str]:
 
 
 ARC_SAMPLES = 9
-"""Points along an RCD's arc checked against the map's lines."""
+"""Points along an RCD's arc checked against the map's lines (and the point it aims at)."""
 
 
 def _unexplained(
-    bm: BeliefMap, check: SonarCheck, pose: NDArray[np.float64], pose_index: int, keep: NDArray[np.intp], config: Config
+    bm: BeliefMap,
+    check: SonarCheck,
+    pose: NDArray[np.float64],
+    pose_index: int,
+    keep: NDArray[np.intp],
+    aim: NDArray[np.float64],
+    config: Config,
 ) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
     """The RCDs of ``keep`` whose arc the map does not explain (module doc), each with its object's place.
 
-    The place is the arc point left unexplained nearest the RCD's direction.
+    The place is the arc point left unexplained nearest the bearing ``aim`` (one per RCD of ``keep``).
     """
     actual, s, params = check.actual, check.surfaces, config.unidentified
-    steps = np.linspace(-0.5, 0.5, ARC_SAMPLES)
-    angles = actual.direction[keep, None] + actual.width[keep, None] * steps  # (R, ARC_SAMPLES)
+    shift = (aim - actual.direction[keep] + np.pi) % (2 * np.pi) - np.pi  # 0 where aimed at the direction
+    offsets = np.column_stack([actual.width[keep, None] * np.linspace(-0.5, 0.5, ARC_SAMPLES), shift])
+    angles = actual.direction[keep, None] + offsets  # (R, ARC_SAMPLES + 1): the arc's samples and the aim
     arc = pose[:2] + actual.range[keep, None, None] * _unit(angles)
     free = np.ones(angles.shape, dtype=bool)
     believed = np.array([bm.mass(line).belief("real") >= BELIEVED for line in s.segment_ids], dtype=bool)
@@ -346,9 +361,42 @@ def _unexplained(
             back = actual.range[keep, None, None] - params.occlusion_margin - FreeSpaceParams().margin
             inner = pose[:2] + np.maximum(back, 0.0) * _unit(angles)
             free &= shapely.contains_xy(bound, inner[..., 0], inner[..., 1])
-    best = np.argmin(np.where(free, np.abs(steps), np.inf), axis=1)
+    best = np.argmin(np.where(free, np.abs(offsets - shift[:, None]), np.inf), axis=1)
     ok = free.any(axis=1)
     return keep[ok], arc[np.flatnonzero(ok), best[ok]]
+
+
+def reflector_bearings(actual: Rcds, which: NDArray[np.intp], params: SonarParams) -> NDArray[np.float64]:
+    """Where the targets of the RCDs ``which`` lie (bearings, rad), by the sonar model (``unidentified.masked_aim``).
+
+    The sonar reports the first echo, so a Type II RCD, one neighbour shorter, is cut on that side by a
+    nearer echo, and its target lies toward it: one detection half-width
+    (:func:`~evmap.sources.sim.sonar.echo_halfwidth`) of the strongest target, a wall or corner, at its range
+    from its free edge's beam axis, kept within the RCD, between its direction and its cut edge. Other
+    RCDs are not cut: their targets lie at their directions.
+
+    >>> from evmap.sources.params import RcdParams, SonarParams
+    >>> from evmap.sources.rcd import extract_rcds
+    >>> from evmap.sources.readings import SonarScan
+    >>> angles = np.radians(np.arange(160.0, 190.0))  # a corner at 7.98 m, 171.7 deg; a wall, 7.9 m, from 173
+    >>> ranges = np.where(angles < np.radians(165), 10.0, np.where(angles < np.radians(173), 7.98, 7.9))
+    >>> rcds = extract_rcds(SonarScan.from_readings(angles, ranges, SonarParams()), RcdParams(min_width_deg=0))
+    >>> rcds.type.tolist(), np.degrees(rcds.direction).round(1).tolist()  # the corner's is cut at 173 deg
+    ([2, 1], [168.5, -179.0])
+    >>> np.degrees(reflector_bearings(rcds, np.array([0, 1]), SonarParams())).round(1).tolist()
+    [171.8, -179.0]
+    """
+    d, width, r = actual.direction[which], actual.width[which], actual.range[which]
+    step = width / np.maximum(actual.count[which], 1)
+    first, last = d - (width - step) / 2, d + (width - step) / 2  # the beam axes of its first and last readings
+    half = echo_halfwidth(np.ones(len(which)), r, params)
+    cut = (actual.type[which] == TYPE_II) & (half >= 0)
+    low = cut & (actual.prev_range[which] < r)  # the shorter neighbour is before the first reading
+    high = cut & ~low & (actual.next_range[which] < r)
+    aim = d.copy()
+    aim[low] = np.clip(last[low] - half[low], first[low], d[low])
+    aim[high] = np.clip(first[high] + half[high], d[high], last[high])
+    return aim
 
 
 def _unit(angle: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -166,6 +166,12 @@ class UnidentifiedParams(_Params):
         description="an unmatched RCD whose target lies this close to a map line is that line's echo, not an "
         "object (m); 0, the paper's method: every unmatched RCD in sight is an object",
     )
+    masked_aim: bool = Field(
+        False,
+        description="a Type II RCD is cut on its shorter neighbour's side by a nearer echo (the sonar reports the "
+        "first one): its object is placed toward that side, one detection half-width of a wall or corner at its "
+        "range from its free edge; false, the paper's method: at the RCD's direction",
+    )
     behind_contour: bool = Field(
         False,
         description="an unmatched RCD whose target lies beyond the pose's own stripe (its points, and the chords "

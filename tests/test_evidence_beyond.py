@@ -214,6 +214,7 @@ def test_unidentified_objects_sit_where_the_map_explains_nothing() -> None:
     assert default.unidentified.explained_distance == 0.15 and load_config("paper").unidentified.explained_distance == 0
     data = default.to_data()
     data["unidentified"]["behind_contour"] = False
+    data["unidentified"]["masked_aim"] = False  # the RCDs' directions: the arc alone moves an object
     on = config_from_data(data, "on")
     data["unidentified"]["explained_distance"] = 0.0
     off = config_from_data(data, "off")
@@ -234,9 +235,33 @@ def test_unidentified_objects_sit_where_the_map_explains_nothing() -> None:
     assert len(glass) and near_glass.any(axis=0).all()
 
 
+def test_an_object_heard_beside_a_nearer_wall_is_placed_toward_it() -> None:
+    """``unidentified.masked_aim`` (default config; the paper's places every object at its RCD's direction): the
+    corner's RCD, cut by the nearer wall's echo, points 0.38 m off the corner; its object lies toward the cut side,
+    within 0.3 m of the corner and off the believed wall line."""
+    from evmap.maps.app.compare_metrics import fuse_rules
+    from evmap.sources.config import config_from_data
+    from evmap.sources.geometry import point_segment_distances
+
+    assert load_config("default").unidentified.masked_aim and not load_config("paper").unidentified.masked_aim
+    scenario = load_scenario(str(Path(__file__).parent / "scenarios" / "corner_beside_a_wall.yaml"))
+    data = load_config("default").to_data()
+    away = {}
+    for aim in (True, False):
+        data["unidentified"]["masked_aim"] = aim
+        bm = fuse_rules(scenario, config_from_data(data, str(aim)), ["dempster"])["dempster"].map
+        (corner,) = bm.unidentified()
+        away[aim] = float(np.hypot(corner.xy[0], corner.xy[1] - 2.75))
+        lines = bm.lines(min_belief=0.5)
+        p, q = np.array([ln.p for ln in lines]), np.array([ln.q for ln in lines])
+        assert point_segment_distances(np.array(corner.xy), p, q).min() > 0.15
+    assert away[True] < 0.3 < away[False]
+
+
 def test_no_unidentified_object_is_placed_beyond_the_stripe_the_map_believes() -> None:
     """Default config (``unidentified.behind_contour``): the corridor's double bounce that the paper's placement
-    puts behind the north wall lands on the window it came from; every object is in sight of the pose."""
+    puts behind the north wall lands on the window it came from; every object is in sight of the pose. Without
+    it, ``unidentified.masked_aim`` alone places that echo, cut by the north wall's, in sight too."""
     from evmap.maps.app.compare_metrics import fuse_rules
     from evmap.sources.config import config_from_data
     from evmap.sources.geometry import cast_rays
@@ -244,16 +269,18 @@ def test_no_unidentified_object_is_placed_beyond_the_stripe_the_map_believes() -
     default = load_config("default")
     data = default.to_data()
     data["unidentified"]["behind_contour"] = False
+    aimed = config_from_data(data, "aimed")
+    data["unidentified"]["masked_aim"] = False
     without = config_from_data(data, "without")
     hidden = {}
-    for name, config in (("default", default), ("without", without)):
+    for name, config in (("default", default), ("aimed", aimed), ("without", without)):
         run = fuse_rules(default_scenario(), config, ["dempster"])["dempster"]
         s, (x, y, _) = run.world.surfaces(), run.world.poses[0]
         xy = np.array([u.xy for u in run.map.unidentified()])
         d = xy - (x, y)
         ranges, _ = cast_rays((x, y), np.arctan2(d[:, 1], d[:, 0]), s.p, s.q, s.cylinder_centers, s.cylinder_radii, 30)
         hidden[name] = int((ranges < np.hypot(*d.T) - 0.1).sum())
-    assert hidden == {"default": 0, "without": 1}
+    assert hidden == {"default": 0, "aimed": 0, "without": 1}
 
 
 def test_an_unidentified_object_a_believed_line_comes_to_explain_is_removed() -> None:

@@ -72,7 +72,7 @@ from evmap.sources.sim.sonar_near import (
 )
 from evmap.sources.sim.surfaces import Surfaces
 
-__all__ = ["simulate_scan"]
+__all__ = ["echo_halfwidth", "simulate_scan"]
 
 
 _FLAT = 1e-6
