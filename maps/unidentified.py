@@ -86,7 +86,8 @@ def add_unidentified(
     keep = unmatched[actual.type[unmatched] != TYPE_IV]
     keep = keep[np.argsort(actual.type[keep], kind="stable")]  # the strongest evidence first
     params = config.unidentified
-    aim = reflector_bearings(actual, keep, check.predicted_scan.params) if params.masked_aim else actual.direction[keep]
+    sonar = check.predicted_scan.params  # the actual scan's: the prediction is simulated with them
+    aim = reflector_bearings(actual, keep, sonar) if params.masked_aim else actual.direction[keep]
     targets = pose[:2] + actual.range[keep, None] * _unit(aim)
     if (params.explained_distance > 0 or params.behind_contour) and len(keep):  # the map's own echoes are no objects
         keep, targets = _unexplained(bm, check, pose, pose_index, keep, aim, config)
