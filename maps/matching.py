@@ -6,7 +6,11 @@ actual RCD i with simulated RCD j is
     ((theta_i - theta_j) / angle_scale)^2 + ((r_i - r_j) / range_scale)^2,
 
 with the circular direction difference. A pair further apart than either gate
-(direction or range) can never match. The matching is a global assignment
+(direction or range) can never match, nor, with ``width_gate_deg``, a pair whose
+actual RCD is wider than the simulated one by more than that: the sonar model
+gives a target's echo a width by its strength and range, and a much wider one
+came from a stronger target than the map's (a glass pane heard at normal
+incidence beside a wall end, from which the map predicts only a weak edge's echo). The matching is a global assignment
 (Kuhn–Munkres, with the potentials and shortest augmenting paths of Jonker and
 Volgenant, as ``scipy.optimize.linear_sum_assignment`` solves it), not greedy
 first-come: it matches as many gated pairs as possible and, among those
@@ -40,6 +44,7 @@ def match_rcds(
     sim_dir: ArrayLike,
     sim_range: ArrayLike,
     params: MatchParams | None = None,
+    widths: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """Pair actual RCDs with simulated ones: gated, one-to-one, least total cost.
 
@@ -48,6 +53,8 @@ def match_rcds(
     actual_dir, actual_range : (A,) directions (radians) and mean ranges (metres) of the actual RCDs.
     sim_dir, sim_range : (S,) the same for the simulated RCDs.
     params : scales and gates; ``MatchParams()`` (10 deg, 5 cm; gates 12.5 deg, 10 cm) if omitted.
+    widths : (A,) and (S,) angular widths (radians) of the actual and simulated RCDs, for
+        ``params.width_gate_deg`` (without them, or with that gate 0, widths are not compared).
 
     Returns
     -------
@@ -75,6 +82,9 @@ def match_rcds(
     drange = a_rng[:, None] - s_rng[None, :]
     gate_a, scale_a = np.radians(params.angle_gate_deg), np.radians(params.angle_scale_deg)
     admissible = (np.abs(dtheta) <= gate_a + _EPS) & (np.abs(drange) <= params.range_gate + _EPS)
+    if widths is not None and params.width_gate_deg > 0:
+        a_width, s_width = (np.asarray(w, dtype=float).reshape(len(d)) for w, d in zip(widths, (a_dir, s_dir)))
+        admissible &= a_width[:, None] <= s_width[None, :] + np.radians(params.width_gate_deg) + _EPS
     cost = (dtheta / scale_a) ** 2 + (drange / params.range_scale) ** 2
     # Larger than the total cost of any assignment of admissible pairs.
     worst = (gate_a / scale_a) ** 2 + (params.range_gate / params.range_scale) ** 2

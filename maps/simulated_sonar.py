@@ -60,7 +60,8 @@ def check_sonar(bm: BeliefMap, sonar: SonarScan, config: Config) -> SonarCheck:
     predicted_scan = simulate_scan(surfaces, pose, sonar.params)
     actual = extract_rcds(sonar, config.rcd)
     predicted = extract_rcds(predicted_scan, config.rcd)
-    matched = match_rcds(actual.direction, actual.range, predicted.direction, predicted.range, config.matching)
+    widths = (actual.width, predicted.width)
+    matched = match_rcds(actual.direction, actual.range, predicted.direction, predicted.range, config.matching, widths)
     hidden = masked(sonar, predicted_scan, predicted, config)
     return SonarCheck(surfaces, actual, predicted_scan, predicted, matched, hidden)
 

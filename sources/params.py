@@ -150,6 +150,13 @@ class MatchParams(_Params):
     range_scale: float = Field(0.05, gt=0, description="range difference of unit cost (m)")
     angle_gate_deg: float = Field(12.5, gt=0, description="pairs further apart in direction never match")
     range_gate: float = Field(0.10, gt=0, description="pairs further apart in range never match (m)")
+    width_gate_deg: float = Field(
+        0.0,
+        ge=0,
+        le=360,
+        description="an actual RCD wider than the simulated one by more than this never matches it: a stronger "
+        "target than the map's answered there; 0, the paper's method: widths are not compared",
+    )
 
 
 class UnidentifiedParams(_Params):

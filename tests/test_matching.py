@@ -84,6 +84,24 @@ def test_scales_and_gates_come_from_the_parameters():
     assert match_rcds(*args, MatchParams(angle_gate_deg=25, range_gate=0.5))[0].tolist() == [0]
 
 
+def test_an_actual_rcd_much_wider_than_the_simulated_one_is_not_its_echo():
+    """``width_gate_deg`` (default config 8, the paper's 0): a pane's echo 25 deg wide does not match the 9 deg
+    echo the map predicts from a wall end beside it; it takes another simulated RCD it fits, and widths within
+    the gate, or a narrower actual RCD, still match."""
+    from evmap.sources.config import load_config
+
+    assert load_config("default").matching.width_gate_deg == 8.0 and load_config("paper").matching.width_gate_deg == 0
+    gate = MatchParams(width_gate_deg=8.0)
+    args = deg([0.0]), [2.5], deg([2.0]), [2.52]
+    assert match_rcds(*args, gate, (deg([25.0]), deg([9.0])))[0].tolist() == []
+    assert match_rcds(*args, MatchParams(), (deg([25.0]), deg([9.0])))[0].tolist() == [0]  # the paper's method
+    assert match_rcds(*args, gate)[0].tolist() == [0]  # no widths given: not compared
+    assert match_rcds(*args, gate, (deg([17.0]), deg([9.0])))[0].tolist() == [0]  # exactly at the gate
+    assert match_rcds(*args, gate, (deg([9.0]), deg([25.0])))[0].tolist() == [0]  # narrower: masked, say
+    two = deg([0.0]), [2.5], deg([2.0, -6.0]), [2.52, 2.5]
+    assert match_rcds(*two, gate, (deg([25.0]), deg([9.0, 24.0])))[1].tolist() == [1]
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
