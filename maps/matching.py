@@ -10,8 +10,8 @@ with the circular direction difference. A pair further apart than either gate
 actual RCD is wider than the simulated one by more than that: the sonar model
 gives a target's echo a width by its strength and range, and a much wider one
 came from a stronger target than the map's (a glass pane heard at normal
-incidence beside a wall end, from which the map predicts only a weak edge's echo). The matching is a global assignment
-(Kuhn–Munkres, with the potentials and shortest augmenting paths of Jonker and
+incidence beside a wall end, from which the map predicts only a weak edge's
+echo). The matching is a global assignment (Kuhn–Munkres, with the potentials and shortest augmenting paths of Jonker and
 Volgenant, as ``scipy.optimize.linear_sum_assignment`` solves it), not greedy
 first-come: it matches as many gated pairs as possible and, among those
 assignments, the one of least total cost. Gated-out pairs carry a finite cost
