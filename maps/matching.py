@@ -13,8 +13,9 @@ came from a stronger target than the map's (a glass pane heard at normal
 incidence beside a wall end, from which the map predicts only a weak edge's
 echo). The matching is a global assignment (Kuhn–Munkres, with the potentials
 and shortest augmenting paths of Jonker and Volgenant, as
-``scipy.optimize.linear_sum_assignment`` solves it), not greedy first-come: it matches as many gated pairs as possible and, among those
-assignments, the one of least total cost. Gated-out pairs carry a finite cost
+``scipy.optimize.linear_sum_assignment`` solves it), not greedy first-come: it
+matches as many gated pairs as possible and, among those assignments, the one
+of least total cost. Gated-out pairs carry a finite cost
 larger than any sum of admissible costs, so one more admissible pair always
 wins, and they are dropped from the result. A pair exactly at a gate is
 admissible.
