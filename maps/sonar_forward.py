@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from evmap.maps.sensed import Sensed
 from evmap.sources.geometry import point_segment_distances
 from evmap.sources.readings import SonarScan
+from evmap.sources.sim.sonar import echo_halfwidth
 
 __all__ = ["SonarForwardParams", "free_ends", "sonar_forward"]
 
@@ -50,13 +51,11 @@ class SonarForwardParams:
 
 
 def _half_width(scan: SonarScan, r: NDArray[np.float64], strength: float) -> NDArray[np.float64]:
-    """Detection half-width (rad) of a target of ``strength`` at range r; NaN where it is never detected."""
-    params = scan.params
-    gain = strength * params.detection_range / np.maximum(r, 1e-9)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w = np.radians(params.directivity_deg) * np.sqrt(np.log(gain) / 2)
-    w = np.minimum(w, np.radians(params.beam_width_deg) / 2)
-    return np.where((gain >= 1) & (r <= params.max_range), w, np.nan)
+    """Detection half-width (rad) of a target of ``strength`` at range r (the sonar model's,
+    :func:`~evmap.sources.sim.sonar.echo_halfwidth`); NaN where it is never detected or lies beyond the
+    sonar's range."""
+    w = echo_halfwidth(np.full(len(r), strength), np.maximum(r, 1e-9), scan.params)
+    return np.where((w >= 0) & (r <= scan.params.max_range), w, np.nan)
 
 
 def _readings(
