@@ -84,7 +84,7 @@ def match_rcds(
     gate_a, scale_a = np.radians(params.angle_gate_deg), np.radians(params.angle_scale_deg)
     admissible = (np.abs(dtheta) <= gate_a + _EPS) & (np.abs(drange) <= params.range_gate + _EPS)
     if widths is not None and params.width_gate_deg > 0:
-        a_width, s_width = (np.asarray(w, dtype=float).reshape(len(d)) for w, d in zip(widths, (a_dir, s_dir)))
+        a_width, s_width = (np.asarray(w, dtype=float) for w in widths)
         admissible &= a_width[:, None] <= s_width[None, :] + np.radians(params.width_gate_deg) + _EPS
     cost = (dtheta / scale_a) ** 2 + (drange / params.range_scale) ** 2
     # Larger than the total cost of any assignment of admissible pairs.

@@ -346,7 +346,7 @@ def _unexplained(
     The place is the arc point left unexplained nearest the bearing ``aim`` (one per RCD of ``keep``).
     """
     actual, s, params = check.actual, check.surfaces, config.unidentified
-    shift = (aim - actual.direction[keep] + np.pi) % (2 * np.pi) - np.pi  # 0 where aimed at the direction
+    shift = aim - actual.direction[keep]  # within the RCD's width; 0 where aimed at its direction
     offsets = np.column_stack([actual.width[keep, None] * np.linspace(-0.5, 0.5, ARC_SAMPLES), shift])
     angles = actual.direction[keep, None] + offsets  # (R, ARC_SAMPLES + 1): the arc's samples and the aim
     arc = pose[:2] + actual.range[keep, None, None] * _unit(angles)
