@@ -15,7 +15,7 @@ import pytest
 
 from evmap.maps.app.cli import main
 from evmap.maps.app.compare import write_comparison
-from evmap.maps.app.compare_metrics import COLUMNS, METRICS
+from evmap.maps.app.compare_metrics import COLUMNS, DISTANCES, FREE_HAZARDS, HAZARDS, METRICS
 from evmap.maps.app.compare_plots import PLOT_FILES
 from evmap.maps.app.compare_runner import iter_results, run_comparison
 from evmap.maps.app.compare_tables import SUMMARY_COLUMNS
@@ -41,10 +41,14 @@ def test_summary_keeps_the_old_columns_first_and_adds_intervals(written):
     assert header[: len(COLUMNS) + 1] == [*COLUMNS, "worlds"]  # what other tools read, unchanged
     assert header == list(SUMMARY_COLUMNS)
     rows = list(csv.DictReader((written / "summary.csv").open()))
+    cut = 0
     for row in rows:
-        for m in METRICS:
+        for m in (*METRICS, *HAZARDS, *FREE_HAZARDS):
             if row[f"{m}_lo"]:
-                assert float(row[f"{m}_lo"]) <= float(row[m]) <= float(row[f"{m}_hi"])
+                lo, hi = float(row[f"{m}_lo"]), float(row[f"{m}_hi"])
+                assert 0 <= lo <= float(row[m]) <= hi <= (np.inf if m in DISTANCES else 1)  # what the metric can be
+                cut += lo == 0 or hi == 1
+    assert cut  # three worlds: wide intervals, some cut at 0 or 1
     md = (written / "summary.md").read_text()
     assert "Student t interval" in md and all(f"- `{m}`:" in md for m in METRICS)
 

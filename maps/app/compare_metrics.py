@@ -55,6 +55,7 @@ __all__ = [
     "COLUMNS",
     "COUNTS",
     "DEFINITIONS",
+    "DISTANCES",
     "EXTRA_COLUMNS",
     "FREE_HAZARDS",
     "GLASS_RADIUS",
@@ -84,6 +85,10 @@ HAZARDS = ("spurious_unidentified", "free_behind_walls")
 FREE_HAZARDS = ("free_behind_opaque", "free_seen_kept")
 """The free space's figures added in version 1.2 of the comparison's files: cells hidden by opaque surfaces
 alone, and the share of what the stripe saw free that the grid keeps free (written after every older column)."""
+
+DISTANCES = ("map_error",)
+"""The figures of :data:`METRICS`, :data:`HAZARDS` and :data:`FREE_HAZARDS` that are distances (m, at least 0);
+every other one is a share, within [0, 1]."""
 
 COLUMNS = ("rule", *METRICS, "max_conflict", *COUNTS, "seconds_per_world", "seconds_simulate")
 """The first columns of ``summary.csv``, as older versions wrote them; ``worlds.csv`` has ``world`` first.

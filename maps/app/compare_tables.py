@@ -5,7 +5,9 @@ memory does not grow with the number of worlds and its numbers do not depend
 on the parallelism: per config, rule and column, the mean over the worlds where
 the value is defined (empty ratios excluded) and, for each of the :data:`METRICS`
 and :data:`HAZARDS` (and :data:`FREE_HAZARDS`), a 95% Student t interval of that mean (``<metric>_lo``,
-``<metric>_hi``); and the :data:`POOLED` ratios, over the segments of all worlds.
+``<metric>_hi``), cut to the values the metric can take (a share within [0, 1], a distance at least 0:
+the mean lies there, so the cut interval covers it as often); and the :data:`POOLED` ratios, over the
+segments of all worlds.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from evmap.maps.app.compare_metrics import (
     BELIEF_BINS,
     COLUMNS,
     DEFINITIONS,
+    DISTANCES,
     EXTRA_COLUMNS,
     FREE_HAZARDS,
     HAZARDS,
@@ -134,7 +137,7 @@ class Tally:
     ...     t.add_row({"config": "default", "rule": "dempster", **dict.fromkeys(_VALUES, x)})
     >>> row = t.summary()[0]
     >>> round(row["noise_recall"], 6), round(row["noise_recall_lo"], 3), round(row["noise_recall_hi"], 3)
-    (0.3, -0.357, 0.957)
+    (0.3, 0.0, 0.957)
     """
 
     configs: tuple[str, ...]
@@ -197,7 +200,7 @@ class Tally:
             row["worlds"] = self.rows_per_variant[v]
             for metric in (*METRICS, *HAZARDS, *FREE_HAZARDS):
                 k = _VALUES.index(metric)
-                lo, hi = _interval(count[k], mean[k], m2[k])
+                lo, hi = _interval(count[k], mean[k], m2[k], math.inf if metric in DISTANCES else 1.0)
                 row[f"{metric}_lo"], row[f"{metric}_hi"] = lo, hi
             for name, (numerator, denominator, twice) in POOLED.items():
                 top, bottom = sums[_sum_key(numerator, twice)], sums[_sum_key(denominator, twice)]
@@ -236,14 +239,15 @@ _POOLED_SUMS = {
 """The sums :class:`Tally` keeps for :data:`POOLED`: key -> (column, only worlds seen twice)."""
 
 
-def _interval(n: float, mean: float, m2: float) -> tuple[float | None, float | None]:
-    """The Student t interval of a mean from n values with sum of squared deviations m2; None below 2 values."""
+def _interval(n: float, mean: float, m2: float, top: float) -> tuple[float | None, float | None]:
+    """The Student t interval of a mean from n values with sum of squared deviations m2, cut to [0, ``top``],
+    the values the metric can take; None below 2 values."""
     if n < 2:
         return None, None
     from scipy import stats  # here, not at the top: scipy.stats takes a second to import, and only the tables need it
 
     half = float(stats.t.ppf(0.5 + CONFIDENCE / 2, n - 1)) * math.sqrt(m2 / (n - 1) / n)
-    return float(mean - half), float(mean + half)
+    return max(float(mean - half), 0.0), min(float(mean + half), top)
 
 
 class WorldsWriter:
@@ -298,8 +302,9 @@ def summary_markdown(comparison: Comparison) -> str:
         (
             "Every config and rule fused the same scans. Each cell is the mean over the worlds (a ratio with an "
             f"empty denominator is left out), with, for the metrics, its {CONFIDENCE:.0%} Student t interval over "
-            "the worlds in brackets (`<metric>_lo`, `<metric>_hi` in summary.csv); the pooled ratios are over the "
-            "segments of all worlds."
+            "the worlds in brackets (`<metric>_lo`, `<metric>_hi` in summary.csv), cut to the values the metric can "
+            "take (a share within [0, 1], `map_error` at least 0); the pooled ratios are over the segments of all "
+            "worlds."
         ),
         "",
         *[f"- `{m}`: {DEFINITIONS[m]}." for m in (*METRICS, *HAZARDS, *FREE_HAZARDS)],
