@@ -8,6 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from evmap.maps.app.log_run import run_log
+from evmap.sources.config import load_config
 from evmap.sources.logs import open_log
 from evmap.sources.logs.carmen import CarmenOptions, read_carmen
 from evmap.sources.logs.scan import LogError
@@ -103,6 +105,7 @@ def test_millimetres_declared(tmp_path: Path) -> None:
         ("SONAR 0.4 1 -1.0 0 0 0 3.0 host 3.0", "SONAR reading 0 is negative"),
         ("ROBOTLASER1 0 -1.5708 3.1416 0.01 50 0.01 0 3 1 2 3 0 1 2 0.1 1 2 0.1 0 0 0 0 0 5.0 h 5.0", "do not fit"),
         ("ROBOTLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 1 2 0.1 1 2 0.1 0 0 0 0 5.0 h 5.0", "needs 27"),
+        ("RAWLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 5.0 h", "x.log:2: RAWLASER1 with 3 beams and 0 rem"),
         ("PARAM robot_front_laser_max", "x.log:2: PARAM needs a name and a value"),
     ],
 )
@@ -132,3 +135,56 @@ def test_open_log_picks_the_reader(tmp_path: Path) -> None:
     assert len(list(open_log(DATA / "killian-excerpt.g2o"))) == 3
     with pytest.raises(LogError, match="no such log"):
         open_log(tmp_path / "missing.log")
+
+
+def raw_version(path: Path, tmp_path: Path) -> Path:
+    """The log with each FLASER line recorded as the CARMEN logger records a scan: the robot's odometry pose
+    (ODOM), then the scan without a pose (RAWLASER1), the layout the FLASER line's reading gives."""
+    records = iter(read_carmen(path))
+    lines = []
+    with gzip.open(path, "rt") as f:
+        for line in f:
+            words = line.split()
+            if words and words[0] == "FLASER":
+                r = next(records)
+                n, a = len(r.scan), r.scan.angles.tolist()
+                robot, stamps = " ".join(map(repr, r.robot_pose.tolist())), " ".join(words[-3:])
+                layout = f"0 {a[0]!r} {a[-1] - a[0]!r} {(a[-1] - a[0]) / (n - 1)!r} {r.scan.max_range!r} 0.01 0"
+                lines += [
+                    f"ODOM {robot} 0 0 0 {stamps}",
+                    f"RAWLASER1 {layout} {n} {' '.join(words[2 : 2 + n])} 0 {stamps}",
+                ]
+            elif words and words[0] != "ODOM":
+                lines.append(line.strip())
+    return write(tmp_path, *lines, name="raw.log")
+
+
+def test_rawlaser1_scans_are_placed_at_the_latest_odometry(tmp_path: Path) -> None:
+    """The logger's RAWLASER1 and ODOM lines give the scans and poses the FLASER lines give (the laser 4 cm
+    behind the robot, as robot_frontlaser_offset says)."""
+    flaser, raw = list(read_carmen(FREIBURG)), list(read_carmen(raw_version(FREIBURG, tmp_path)))
+    assert [r.index for r in raw] == [r.index for r in flaser] == list(range(20))
+    for a, b in zip(flaser, raw, strict=True):
+        np.testing.assert_allclose(b.scan.angles, a.scan.angles, atol=1e-12)
+        np.testing.assert_array_equal(b.scan.ranges, a.scan.ranges)
+        np.testing.assert_allclose(b.robot_pose, a.robot_pose, atol=1e-12)
+        np.testing.assert_allclose(b.scan.pose, a.scan.pose, atol=1e-12)
+        assert b.scan.stamp == a.scan.stamp and b.scan.max_range == a.scan.max_range
+
+
+def test_rawlaser1_is_read_only_where_the_log_has_no_other_scans(tmp_path: Path) -> None:
+    raw = "RAWLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 5.0 host 5.0"
+    robot = "ROBOTLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 1 2 0.1 1 2 0.1 0 0 0 0 0 5.0 host 5.0"
+    odom = "ODOM 1 2 0.1 0 0 0 4.0 host 4.0"
+    (record,) = read_carmen(write(tmp_path, odom, raw, robot))  # the logger writes each scan both ways
+    assert record.scan.pose.tolist() == [1.0, 2.0, 0.1]
+    records = list(read_carmen(write(tmp_path, raw, odom, raw, raw)))  # the first, before any odometry: skipped
+    assert [r.index for r in records] == [0, 1] and records[0].robot_pose.tolist() == [1.0, 2.0, 0.1]
+    with pytest.raises(LogError, match="x.log: none of the 2 RAWLASER1 scans could be placed: the log has no ODOM"):
+        list(read_carmen(write(tmp_path, raw, raw)))
+
+
+def test_a_raw_log_maps_as_its_flaser_version(tmp_path: Path) -> None:
+    flaser, raw = (run_log(log, load_config()) for log in (FREIBURG, raw_version(FREIBURG, tmp_path)))
+    np.testing.assert_array_equal(raw.map.segments.p, flaser.map.segments.p)
+    assert sorted(raw.map.graph.edges) == sorted(flaser.map.graph.edges) and raw.log.scans == 20

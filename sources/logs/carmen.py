@@ -16,7 +16,16 @@ One message per line, ``NAME fields... ipc_timestamp ipc_hostname logger_timesta
   r_1..r_n m e_1..e_m laser_x laser_y laser_theta robot_x robot_y robot_theta
   tv rv forward_safety side_safety turn_axis``: the line states its layout
   (beam ``i`` at ``start + i * resolution``, checked against ``fov``) and range.
-- ``ODOM x y theta tv rv accel``: checked (finite numbers); the scans carry their own poses.
+- ``RAWLASER1 type start fov resolution max_range accuracy remission_mode n r_1..r_n
+  m e_1..e_m``: the front laser as the CARMEN logger records it, layout as in
+  ROBOTLASER1 but no pose: read only from a log that has no ROBOTLASER1 nor
+  FLASER line (the logger writes each scan twice, RAWLASER1 and ROBOTLASER1, in a
+  log with both), placed at the latest ODOM pose at or before it, not
+  interpolated (as :mod:`~evmap.sources.logs.rosbag` places its scans), the laser
+  ``robot_frontlaser_offset`` ahead (as FLASER); scans before the first ODOM line
+  are skipped, and a log none of whose scans can be placed is an error.
+- ``ODOM x y theta tv rv accel``: checked (finite numbers); the poses of RAWLASER1 scans (the other
+  scans carry their own).
 - ``SONAR cone_angle k s_1..s_k x_1 y_1 theta_1 .. x_k y_k theta_k``: a sonar ring
   (angles in radians, offsets on the robot in metres); the next scans carry the
   latest such readings. A reading at or above ``sonar_max_range`` is no echo.
@@ -114,7 +123,8 @@ def open_text(path: str | Path) -> IO[str]:
 
 
 def read_carmen(path: str | Path, options: CarmenOptions | None = None) -> Log:
-    """The CARMEN log at ``path`` as a stream of records, one per FLASER or ROBOTLASER1 line (see the module doc)."""
+    """The CARMEN log at ``path`` as a stream of records, one per FLASER or ROBOTLASER1 line, or RAWLASER1 line
+    in a log with neither (see the module doc)."""
     options = options or CarmenOptions()
     if options.unit not in UNITS:
         raise ValueError(f"unit must be one of {sorted(UNITS)}, got {options.unit!r}")
@@ -155,38 +165,43 @@ def robotlaser1(words: list[str], where: str, unit: Unit = "m") -> tuple[LaserSc
     >>> scan.ranges.tolist(), scan.pose.tolist(), scan.stamp
     ([1.0, 2.0, 3.0], [1.0, 2.0, 0.1], 5.0)
     """
+    scan, tail = _laser_line(words, where, unit, 6 + 5)
+    poses = _numbers(words[tail : tail + 6], where, "ROBOTLASER1 poses")
+    laser = check_pose(poses[:3], where, "laser pose")
+    robot = check_pose(poses[3:], where, "robot pose")
+    return LaserScan(scan.stamp, laser, scan.angles, scan.ranges, scan.max_range), robot
+
+
+def _laser_line(words: list[str], where: str, unit: Unit, after: int) -> tuple[LaserScan, int]:
+    """The scan of a ROBOTLASER1 or RAWLASER1 line (at pose 0) and where the fields after its remissions start;
+    ``after``: how many fields come between those and the 3 stamps."""
+    kind = words[0]
     if len(words) < 9:
-        raise LogError(f"{where}: ROBOTLASER1 needs at least 9 fields, got {len(words)}")
-    n = _count(words[8], where, "ROBOTLASER1 beam count")
+        raise LogError(f"{where}: {kind} needs at least 9 fields, got {len(words)}")
+    n = _count(words[8], where, f"{kind} beam count")
     if len(words) < 10 + n:
-        raise LogError(f"{where}: ROBOTLASER1 states {n} beams but the line ends after {len(words) - 9} fields")
-    m = _count(words[9 + n], where, "ROBOTLASER1 remission count")
-    expected = 9 + n + 1 + m + 6 + 5 + 3
+        raise LogError(f"{where}: {kind} states {n} beams but the line ends after {len(words) - 9} fields")
+    m = _count(words[9 + n], where, f"{kind} remission count")
+    expected = 9 + n + 1 + m + after + 3
     if len(words) != expected:
-        raise LogError(
-            f"{where}: ROBOTLASER1 with {n} beams and {m} remissions needs {expected} fields, got {len(words)}"
-        )
-    start, fov, step, max_range = _numbers(words[2:6], where, "ROBOTLASER1 layout")
+        raise LogError(f"{where}: {kind} with {n} beams and {m} remissions needs {expected} fields, got {len(words)}")
+    start, fov, step, max_range = _numbers(words[2:6], where, f"{kind} layout")
     if not (n >= 1 and step > 0 and fov > 0 and max_range > 0):
         raise LogError(
-            f"{where}: ROBOTLASER1 layout start {start:g}, fov {fov:g}, resolution {step:g}, "
+            f"{where}: {kind} layout start {start:g}, fov {fov:g}, resolution {step:g}, "
             f"max range {max_range:g} is not a laser's"
         )
     if n > 1 and abs((n - 1) * step - fov) > step * 1.01 + 1e-6:
         raise LogError(
-            f"{where}: ROBOTLASER1 states {n} beams {step:g} rad apart, which do not fit its field of view {fov:g} rad"
+            f"{where}: {kind} states {n} beams {step:g} rad apart, which do not fit its field of view {fov:g} rad"
         )
     try:
         geometry = LaserGeometry(n, float(start), float(step), float(max_range) * UNITS[unit], unit)
     except ValueError as exc:
-        raise LogError(f"{where}: ROBOTLASER1 {exc}") from None
+        raise LogError(f"{where}: {kind} {exc}") from None
     ranges = geometry.ranges(words[9 : 9 + n], where)
-    tail = 10 + n + m
-    poses = _numbers(words[tail : tail + 6], where, "ROBOTLASER1 poses")
-    laser = check_pose(poses[:3], where, "laser pose")
-    robot = check_pose(poses[3:], where, "robot pose")
     stamp = float(_numbers(words[-3:-2], where, "timestamp")[0])
-    return LaserScan(stamp, laser, geometry.angles, ranges, geometry.max_range), robot
+    return LaserScan(stamp, np.zeros(3), geometry.angles, ranges, geometry.max_range), 10 + n + m
 
 
 class _State:
@@ -197,6 +212,7 @@ class _State:
         self.params: dict[str, str] = {}
         self.layouts: dict[int, LaserGeometry] = {}
         self.sonar: RangeReadings | None = None
+        self.odometry: NDArray[np.float64] | None = None  # the latest ODOM pose
 
     def param(self, name: str, where: str, positive: bool = True) -> float | None:
         if name not in self.params:
@@ -225,7 +241,8 @@ class _State:
 
 def _records(path: Path, options: CarmenOptions) -> Iterator[LogRecord]:
     state = _State(options)
-    index = 0
+    index = raw_scans = 0
+    raw = None  # whether RAWLASER1 lines are the scans: the log has no ROBOTLASER1 nor FLASER line
     with open_text(path) as f:
         for number, line in enumerate(f, start=1):
             words = line.split()
@@ -245,14 +262,40 @@ def _records(path: Path, options: CarmenOptions) -> Iterator[LogRecord]:
                 scan, robot = robotlaser1(words, where, options.unit)
                 yield LogRecord(index, scan, robot, state.sonar)
                 index += 1
+            elif name == "RAWLASER1":
+                raw = _only_raw_scans(path) if raw is None else raw
+                if raw:
+                    raw_scans += 1
+                    scan, _ = _laser_line(words, where, options.unit, 0)
+                    if state.odometry is not None:
+                        yield _placed(scan, state, where, index)
+                        index += 1
             elif name == "ODOM":
                 if len(words) != 10:
                     raise LogError(
                         f"{where}: ODOM needs 10 fields (x y theta tv rv accel and 3 stamps), got {len(words)}"
                     )
-                check_pose(_numbers(words[1:4], where, "ODOM pose"), where, "odometry pose")
+                state.odometry = check_pose(_numbers(words[1:4], where, "ODOM pose"), where, "odometry pose")
             elif name == "SONAR":
                 state.sonar = _sonar(words, where, options)
+    if raw_scans and not index:
+        raise LogError(
+            f"{path}: none of the {raw_scans} RAWLASER1 scans could be placed: the log has no ODOM line before them"
+        )
+
+
+def _only_raw_scans(path: Path) -> bool:
+    """Whether the log has no ROBOTLASER1 nor FLASER line (read through once, at its first RAWLASER1 line)."""
+    with open_text(path) as f:
+        return not any(line.startswith(("ROBOTLASER1 ", "FLASER ")) for line in f)
+
+
+def _placed(scan: LaserScan, state: _State, where: str, index: int) -> LogRecord:
+    """A RAWLASER1 scan at the latest odometry pose, the laser ``robot_frontlaser_offset`` ahead of the robot."""
+    robot = state.odometry
+    offset = state.param("robot_frontlaser_offset", where, positive=False) or 0.0
+    laser = compose(robot, [offset, 0.0, 0.0])
+    return LogRecord(index, LaserScan(scan.stamp, laser, scan.angles, scan.ranges, scan.max_range), robot, state.sonar)
 
 
 def _flaser(words: list[str], where: str, state: _State, index: int) -> LogRecord:
