@@ -18,7 +18,7 @@ from evmap.maps.app.compare import write_comparison
 from evmap.maps.app.compare_metrics import COLUMNS, DISTANCES, FREE_HAZARDS, HAZARDS, METRICS
 from evmap.maps.app.compare_plots import PLOT_FILES
 from evmap.maps.app.compare_runner import iter_results, run_comparison
-from evmap.maps.app.compare_tables import SUMMARY_COLUMNS
+from evmap.maps.app.compare_tables import SUMMARY_COLUMNS, summary_markdown
 from evmap.maps.app.output_layout import MARKER
 from evmap.sources.sim.worldgen_params import WorldGenParams
 
@@ -73,8 +73,17 @@ def test_same_seed_same_numbers_whatever_the_scheduler():
 
     a = run_comparison(["dempster", "murphy"], 5, 4, params=ONE_POSE, scheduler="synchronous", progress=False)
     b = run_comparison(["dempster", "murphy"], 5, 4, params=ONE_POSE, scheduler="threads", workers=2, progress=False)
-    assert numbers(a) == numbers(b)
+    assert numbers(a) == numbers(b) and a.differences == b.differences
     assert all(np.array_equal(a.beliefs[v], b.beliefs[v]) for v in a.variants)
+    # the paired differences: murphy's value less dempster's on each world, averaged over the worlds
+    (murphy,) = a.differences
+    for m in (*METRICS, *HAZARDS, *FREE_HAZARDS):
+        rows = {r["rule"]: [x[m] for x in a.rows if x["rule"] == r["rule"]] for r in a.summary}
+        d = [u - v for u, v in zip(rows["murphy"], rows["dempster"], strict=True) if u is not None and v is not None]
+        assert murphy[m] == pytest.approx(np.mean(d)) if d else murphy[m] is None
+        if len(d) > 1:
+            assert murphy[f"{m}_lo"] <= murphy[m] <= murphy[f"{m}_hi"]
+    assert "Paired differences from `dempster`" in summary_markdown(a)
 
 
 def test_results_stream_in_world_order_and_lazily():

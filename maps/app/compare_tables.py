@@ -7,7 +7,10 @@ the value is defined (empty ratios excluded) and, for each of the :data:`METRICS
 and :data:`HAZARDS` (and :data:`FREE_HAZARDS`), a 95% Student t interval of that mean (``<metric>_lo``,
 ``<metric>_hi``), cut to the values the metric can take (a share within [0, 1], a distance at least 0:
 the mean lies there, so the cut interval covers it as often); and the :data:`POOLED` ratios, over the
-segments of all worlds.
+segments of all worlds. Against the first config and rule (the baseline), each other's paired
+differences: per metric, the mean over the worlds where both are defined of its value less the
+baseline's on the same world, with its Student t interval (``summary.md``): the worlds' own spread,
+which the separate intervals carry, cancels out.
 """
 
 from __future__ import annotations
@@ -52,7 +55,10 @@ __all__ = [
 CONFIDENCE = 0.95
 """Coverage of the interval of each metric's mean over the worlds (Student t)."""
 
-INTERVAL_COLUMNS = tuple(f"{m}_{end}" for m in (*METRICS, *HAZARDS, *FREE_HAZARDS) for end in ("lo", "hi"))
+_INTERVALS = (*METRICS, *HAZARDS, *FREE_HAZARDS)
+"""The figures given with intervals, and compared pairwise."""
+
+INTERVAL_COLUMNS = tuple(f"{m}_{end}" for m in _INTERVALS for end in ("lo", "hi"))
 """The interval columns of ``summary.csv``."""
 
 _OLD_INTERVALS = 2 * (len(METRICS) + len(HAZARDS))
@@ -102,6 +108,8 @@ class Comparison:
         where both are defined.
     rows : one dict per world, config and rule (the ``worlds.csv`` rows), in world order; empty when streamed.
     scenarios : world name -> its scenario YAML; empty when streamed to files.
+    differences : one dict per config and rule but the first: each metric's mean paired difference from the
+        first (``<metric>``) and its interval (``<metric>_lo``, ``<metric>_hi``), None below two worlds.
     """
 
     configs: tuple[str, ...]
@@ -113,6 +121,7 @@ class Comparison:
     points: dict[Variant, NDArray[np.float64]]
     rows: tuple[dict[str, Any], ...] = ()
     scenarios: dict[str, str] = field(default_factory=dict)
+    differences: tuple[dict[str, Any], ...] = ()
 
     @property
     def variants(self) -> tuple[Variant, ...]:
@@ -150,10 +159,12 @@ class Tally:
     rows_per_variant: dict[Variant, int] = field(default_factory=dict)
     beliefs: dict[Variant, NDArray[np.int64]] = field(default_factory=dict)
     points: dict[Variant, list[tuple[float, float]]] = field(default_factory=dict)
+    paired: dict[Variant, NDArray[np.float64]] = field(default_factory=dict)  # (3, metrics): count, mean, m2
 
     def __post_init__(self) -> None:
         for v in self.variants:
             self.count[v], self.mean[v], self.m2[v] = (np.zeros(len(_VALUES)) for _ in range(3))
+            self.paired[v] = np.zeros((3, len(_INTERVALS)))
             self.pooled[v] = dict.fromkeys(_POOLED_SUMS, 0.0)
             self.rows_per_variant[v] = 0
             self.beliefs[v] = np.zeros((2, len(BELIEF_BINS) - 1), dtype=np.int64)
@@ -173,18 +184,17 @@ class Tally:
                 self.points[v].append((row["real_loss"], row["noise_recall"]))
         for v, counts in result.beliefs.items():
             self.beliefs[v] += counts
+        base = {(r["config"], r["rule"]): r for r in result.rows}.get(self.variants[0])
+        for row in result.rows if base is not None else ():
+            values = [np.nan if row[m] is None or base[m] is None else row[m] - base[m] for m in _INTERVALS]
+            _welford(self.paired[row["config"], row["rule"]], np.array(values, dtype=float))
         self.worlds += 1
 
     def add_row(self, row: dict[str, Any]) -> None:
         """Fold in one row of ``worlds.csv``."""
         v = row["config"], row["rule"]
         values = np.array([np.nan if row[c] is None else row[c] for c in _VALUES], dtype=float)
-        seen = ~np.isnan(values)
-        count, mean, m2 = self.count[v], self.mean[v], self.m2[v]
-        count[seen] += 1
-        delta = values[seen] - mean[seen]
-        mean[seen] += delta / count[seen]
-        m2[seen] += delta * (values[seen] - mean[seen])
+        _welford((self.count[v], self.mean[v], self.m2[v]), values)
         for key, (column, twice) in _POOLED_SUMS.items():
             if row[column] is not None and (not twice or row["sunlight_seen_twice"]):
                 self.pooled[v][key] += row[column]
@@ -198,13 +208,28 @@ class Tally:
             row: dict[str, Any] = {"config": v[0], "rule": v[1]}
             row.update({c: float(mean[k]) if count[k] else None for k, c in enumerate(_VALUES)})
             row["worlds"] = self.rows_per_variant[v]
-            for metric in (*METRICS, *HAZARDS, *FREE_HAZARDS):
+            for metric in _INTERVALS:
                 k = _VALUES.index(metric)
-                lo, hi = _interval(count[k], mean[k], m2[k], math.inf if metric in DISTANCES else 1.0)
+                lo, hi = _interval(count[k], mean[k], m2[k], (0.0, _top(metric)))
                 row[f"{metric}_lo"], row[f"{metric}_hi"] = lo, hi
             for name, (numerator, denominator, twice) in POOLED.items():
                 top, bottom = sums[_sum_key(numerator, twice)], sums[_sum_key(denominator, twice)]
                 row[name] = top / bottom if bottom else None
+            out.append(row)
+        return tuple(out)
+
+    def differences(self) -> tuple[dict[str, Any], ...]:
+        """One row per config and rule but the first: each metric's mean paired difference from the first, with
+        its interval (within what a difference of the metric can be)."""
+        out = []
+        for v in self.variants[1:]:
+            count, mean, m2 = self.paired[v]
+            row: dict[str, Any] = {"config": v[0], "rule": v[1]}
+            for k, metric in enumerate(_INTERVALS):
+                row[metric] = float(mean[k]) if count[k] else None
+                row[f"{metric}_lo"], row[f"{metric}_hi"] = _interval(
+                    count[k], mean[k], m2[k], (-_top(metric), _top(metric))
+                )
             out.append(row)
         return tuple(out)
 
@@ -224,6 +249,7 @@ class Tally:
             points,
             tuple(rows),
             dict(scenarios or {}),
+            self.differences(),
         )
 
 
@@ -239,15 +265,30 @@ _POOLED_SUMS = {
 """The sums :class:`Tally` keeps for :data:`POOLED`: key -> (column, only worlds seen twice)."""
 
 
-def _interval(n: float, mean: float, m2: float, top: float) -> tuple[float | None, float | None]:
-    """The Student t interval of a mean from n values with sum of squared deviations m2, cut to [0, ``top``],
-    the values the metric can take; None below 2 values."""
+def _welford(stats: Sequence[NDArray[np.float64]], values: NDArray[np.float64]) -> None:
+    """Fold ``values`` (NaN: not counted) into running counts, means and sums of squared deviations."""
+    count, mean, m2 = stats
+    seen = ~np.isnan(values)
+    count[seen] += 1
+    delta = values[seen] - mean[seen]
+    mean[seen] += delta / count[seen]
+    m2[seen] += delta * (values[seen] - mean[seen])
+
+
+def _top(metric: str) -> float:
+    """The largest value the metric can take: 1 for a share, none for a distance."""
+    return math.inf if metric in DISTANCES else 1.0
+
+
+def _interval(n: float, mean: float, m2: float, bounds: tuple[float, float]) -> tuple[float | None, float | None]:
+    """The Student t interval of a mean from n values with sum of squared deviations m2, cut to ``bounds``,
+    the values the mean can take; None below 2 values."""
     if n < 2:
         return None, None
     from scipy import stats  # here, not at the top: scipy.stats takes a second to import, and only the tables need it
 
     half = float(stats.t.ppf(0.5 + CONFIDENCE / 2, n - 1)) * math.sqrt(m2 / (n - 1) / n)
-    return max(float(mean - half), 0.0), min(float(mean + half), top)
+    return max(float(mean - half), bounds[0]), min(float(mean + half), bounds[1])
 
 
 class WorldsWriter:
@@ -330,7 +371,34 @@ def summary_markdown(comparison: Comparison) -> str:
                 cell += f" [{row[f'{c}_lo']:.3f}, {row[f'{c}_hi']:.3f}]"
             cells.append(cell)
         out.append("| " + " | ".join([row["config"], row["rule"], *cells]) + " |")
-    return "\n".join(out) + "\n"
+    return "\n".join(out + _differences_markdown(comparison)) + "\n"
+
+
+def _differences_markdown(comparison: Comparison) -> list[str]:
+    """The paired differences from the first config and rule, as Markdown lines (none for a single one)."""
+    if not comparison.differences:
+        return []
+    base = comparison.label(comparison.variants[0])
+    out = [
+        "",
+        (
+            f"Paired differences from `{base}`: the mean over the worlds of each one's value less `{base}`'s on "
+            f"the same world, with its {CONFIDENCE:.0%} Student t interval (the spread of the worlds themselves "
+            "cancels out)."
+        ),
+        "",
+        "| " + " | ".join(["config", "rule", *_INTERVALS]) + " |",
+        "| " + " | ".join(["---", "---", *["---:"] * len(_INTERVALS)]) + " |",
+    ]
+    for row in comparison.differences:
+        cells = []
+        for m in _INTERVALS:
+            cell = "" if row[m] is None else f"{row[m]:+.3f}"
+            if row[f"{m}_lo"] is not None:
+                cell += f" [{row[f'{m}_lo']:+.3f}, {row[f'{m}_hi']:+.3f}]"
+            cells.append(cell)
+        out.append("| " + " | ".join([row["config"], row["rule"], *cells]) + " |")
+    return out
 
 
 def _cell(value: Any) -> Any:
