@@ -184,10 +184,12 @@ class Tally:
                 self.points[v].append((row["real_loss"], row["noise_recall"]))
         for v, counts in result.beliefs.items():
             self.beliefs[v] += counts
-        base = {(r["config"], r["rule"]): r for r in result.rows}.get(self.variants[0])
-        for row in result.rows if base is not None else ():
-            values = [np.nan if row[m] is None or base[m] is None else row[m] - base[m] for m in _INTERVALS]
-            _welford(self.paired[row["config"], row["rule"]], np.array(values, dtype=float))
+        rows = {(r["config"], r["rule"]): r for r in result.rows}
+        base = rows.get(self.variants[0])
+        for v in self.variants[1:] if base is not None else ():
+            if v in rows:
+                values = [np.nan if rows[v][m] is None or base[m] is None else rows[v][m] - base[m] for m in _INTERVALS]
+                _welford(self.paired[v], np.array(values, dtype=float))
         self.worlds += 1
 
     def add_row(self, row: dict[str, Any]) -> None:
