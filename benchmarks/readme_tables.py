@@ -2,9 +2,10 @@
 
 Reruns every packaged scenario (``configs/scenarios/``, ``evmap run``) and the rule
 comparison (``evmap compare --worlds 200 --seed 1``), each under the paper's config and
-the default one (``--configs``), and prints the two Markdown
+the default one (``--configs``), and prints the Markdown
 tables of the README's "Other scenarios" and "Rules on 200 generated worlds"
-sections. The comparison's numbers do not depend on the scheduler (rows are
+sections, the latter with its paired differences from the first config and
+rule. The comparison's numbers do not depend on the scheduler (rows are
 gathered in world order), only its timings do.
 
     .venv/bin/python benchmarks/readme_tables.py [--worlds 200] [--seed 1] [--scheduler ADDRESS]
@@ -91,6 +92,27 @@ def rule_table(comparison: Comparison) -> str:
     return "\n".join(out)
 
 
+DIFFERENCE_COLUMNS = ("noise_recall", "real_loss", "glass_explained", "spurious_unidentified", "free_behind_walls")
+"""The paired differences the README shows."""
+
+
+def difference_table(comparison: Comparison) -> str:
+    """The paired differences from the first config and rule (``summary.md``'s), for :data:`DIFFERENCE_COLUMNS`."""
+    out = [
+        "| config | rule | " + " | ".join(RULE_COLUMNS[c][0] for c in DIFFERENCE_COLUMNS) + " |",
+        "| --- | --- | " + " | ".join("---:" for _ in DIFFERENCE_COLUMNS) + " |",
+    ]
+    for row in comparison.differences:
+        cells = []
+        for c in DIFFERENCE_COLUMNS:
+            cell = "" if row[c] is None else f"{row[c]:+.3f}"
+            if row[f"{c}_lo"] is not None:
+                cell += f" ({row[f'{c}_lo']:+.3f} to {row[f'{c}_hi']:+.3f})"
+            cells.append(cell)
+        out.append(f"| {row['config']} | {row['rule']} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worlds", type=int, default=200)
@@ -109,6 +131,9 @@ def main() -> None:
         f"\n### Rules on {args.worlds} generated worlds (`evmap compare ... --worlds {args.worlds} --seed {args.seed}`)\n"
     )
     print(rule_table(comparison))
+    base = comparison.variants[0]
+    print(f"\nPaired differences from {base[0]} / {base[1]} on the same worlds:\n")
+    print(difference_table(comparison))
 
 
 if __name__ == "__main__":
