@@ -1,4 +1,5 @@
-"""A comparison's plots: noise recall against real loss, the metrics' intervals, the line beliefs.
+"""A comparison's plots: noise recall against real loss, the metrics' intervals, the line beliefs, the paired
+differences from the first config and rule.
 
 One series per config and rule (a *variant*). Every variant stays visible when
 they agree (Yager's and Dubois–Prade's rules are equal on a two-element frame):
@@ -8,6 +9,7 @@ few points (not data units) from the others.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from matplotlib.figure import Figure
@@ -24,13 +26,14 @@ MARKERS = "oDs^vPX*<>"
 SHIFT_POINTS = 7.0
 """Sideways shift (typographic points) between the means of consecutive variants."""
 
-PLOT_FILES = ("noise_recall_vs_real_loss.png", "metric_intervals.png", "line_beliefs.png")
+PLOT_FILES = ("noise_recall_vs_real_loss.png", "metric_intervals.png", "line_beliefs.png", "paired_differences.png")
 """What :func:`write_plots` writes."""
 
 
 def write_plots(comparison: Comparison, directory: Path) -> None:
     """Write the :data:`PLOT_FILES` into ``directory``."""
-    for name, plot in zip(PLOT_FILES, (plot_recall_loss, plot_intervals, plot_beliefs), strict=True):
+    plots = (plot_recall_loss, plot_intervals, plot_beliefs, plot_differences)
+    for name, plot in zip(PLOT_FILES, plots, strict=True):
         plot(comparison, directory / name)
 
 
@@ -74,28 +77,48 @@ def plot_recall_loss(comparison: Comparison, path: Path) -> None:
 
 def plot_intervals(comparison: Comparison, path: Path) -> None:
     """One panel per metric: each variant's mean and interval on its own row."""
-    labels = [comparison.label(v) for v in comparison.variants]
+    title = f"Means over {comparison.worlds} worlds with {CONFIDENCE:.0%} Student t intervals"
+    _panels(comparison.summary, [comparison.label(v) for v in comparison.variants], title, path)
+
+
+def plot_differences(comparison: Comparison, path: Path) -> None:
+    """One panel per metric: each variant's mean paired difference from the first variant, with its interval."""
+    base = comparison.label(comparison.variants[0])
+    title = (
+        f"Paired differences from {base} over {comparison.worlds} worlds (the same worlds' values less {base}'s), "
+        f"with {CONFIDENCE:.0%} Student t intervals"
+    )
+    labels = [comparison.label(v) for v in comparison.variants[1:]]
+    _panels(comparison.differences, labels, title, path, zero=True)
+
+
+def _panels(rows: Sequence[dict], labels: list[str], title: str, path: Path, zero: bool = False) -> None:
+    """One panel per metric, a row per variant (the k-th marked as the k-th variant of the comparison, or
+    the (k+1)-th with ``zero``, where a line marks no difference)."""
     metrics = (*METRICS, *HAZARDS, *FREE_HAZARDS)
-    fig = Figure(figsize=(3.0 * len(metrics), 0.45 * len(labels) + 1.6))
+    fig = Figure(figsize=(3.0 * len(metrics), 0.45 * max(len(labels), 1) + 1.6))
     axes = fig.subplots(1, len(metrics), sharey=True)
     for ax, metric in zip(axes, metrics, strict=True):
-        for k, row in enumerate(comparison.summary):
+        for k, row in enumerate(rows):
             if row[metric] is None:
                 continue
+            style = k + zero
             ax.errorbar(
                 row[metric],
                 k,
                 xerr=_bar(row, metric),
-                fmt=MARKERS[k % len(MARKERS)],
-                color=f"C{k % 10}",
+                fmt=MARKERS[style % len(MARKERS)],
+                color=f"C{style % 10}",
                 mec="k",
                 capsize=3,
             )
+        if zero:
+            ax.axvline(0.0, color="k", lw=0.8)
         ax.set_title(metric, fontsize="medium")
         ax.grid(axis="x", alpha=0.3)
     axes[0].set_yticks(range(len(labels)), labels)
-    axes[0].set_ylim(len(labels) - 0.5, -0.5)
-    fig.suptitle(f"Means over {comparison.worlds} worlds with {CONFIDENCE:.0%} Student t intervals", fontsize="medium")
+    axes[0].set_ylim(max(len(labels), 1) - 0.5, -0.5)
+    fig.suptitle(title if labels else f"{title}: one config and rule, nothing to compare", fontsize="medium")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
 
