@@ -50,7 +50,8 @@ def add_compare_parser(
         "--configs",
         help="comma-separated configs to compare, each a file, a packaged name, BASE+SOURCE (BASE with a "
         "noise-elimination source of the default config added, e.g. paper+contour_free), or 'ablation' "
-        "(paper, paper plus each new source, default); one row per config and rule",
+        "(paper, paper plus each new source, default); one row per config and rule; summary.md compares each "
+        "with the first config and first rule, world by world",
     )
     compare.add_argument(
         "--scheduler",
