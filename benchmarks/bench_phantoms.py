@@ -15,7 +15,8 @@ defines each):
 - ``behind``: the mean share of the free grid cells that lie behind true surfaces;
   ``opaque``: of those hidden by opaque surfaces alone; ``kept``: the mean share of the
   places the stripe saw free that the grid keeps free;
-- ``glass``: the mean share of glass walls heard at normal incidence that are explained;
+- ``glass``: the mean share of glass walls seen at normal incidence that are explained; ``heard``: of those the
+  sonar really heard at normal incidence (``glass_heard_explained``);
 - ``s/pose``: the median over worlds of the fusion seconds per pose.
 
     python benchmarks/bench_phantoms.py --worlds 30 --seeds 11 12 [--configs ablation]
@@ -34,7 +35,14 @@ from evmap.sources.sim.worldgen_params import WorldGenParams
 DETECTORS = {"threshold": 0.0, "column_max": 1.0}
 """Detector -> the generator's ``column_max_share``."""
 
-COLUMNS = ("spurious_unidentified", "free_behind_walls", "free_behind_opaque", "free_seen_kept", "glass_explained")
+COLUMNS = (
+    "spurious_unidentified",
+    "free_behind_walls",
+    "free_behind_opaque",
+    "free_seen_kept",
+    "glass_explained",
+    "glass_heard_explained",
+)
 """The per-world figures averaged over the worlds."""
 
 
@@ -70,14 +78,17 @@ def main() -> None:
                         means[key][column].append(row[column])
                 means[key]["s/pose"].append(row["seconds_per_world"] / poses[row["world"]])
     print(f"seeds {args.seeds}, {args.worlds} worlds each per detector, Dempster's rule, pooled over segments")
-    print("config                  detector    recall recall2   loss  spurious  behind  opaque    kept   glass  s/pose")
+    print(
+        "config                  detector    recall recall2   loss  spurious  behind  opaque    kept   glass  "
+        "heard  s/pose"
+    )
     for (name, detector), s in sums.items():
         m = {k: statistics.fmean(v) if v else float("nan") for k, v in means[name, detector].items()}
         print(
             f"{name:23s} {detector:10s} {s['noise_out'] / max(s['noise'], 1):6.3f} "
             f"{s['noise2_out'] / max(s['noise2'], 1):6.3f} {s['real_out'] / max(s['real'], 1):7.4f} "
             f"{m['spurious_unidentified']:8.3f} {m['free_behind_walls']:7.3f} {m['free_behind_opaque']:7.4f} "
-            f"{m['free_seen_kept']:7.3f} {m['glass_explained']:7.3f} "
+            f"{m['free_seen_kept']:7.3f} {m['glass_explained']:7.3f} {m['glass_heard_explained']:6.3f} "
             f"{statistics.median(means[name, detector]['s/pose']):6.3f}   ({int(s['twice'])} worlds seen twice)"
         )
 

@@ -11,9 +11,10 @@ import shapely
 
 from evmap.maps.app.cli import build_parser
 from evmap.maps.app.compare_executors import executor
-from evmap.maps.app.compare_metrics import COLUMNS, METRICS, fuse_rules, visible_glass, world_metrics
+from evmap.maps.app.compare_metrics import COLUMNS, METRICS, fuse_rules, heard_glass, visible_glass, world_metrics
 from evmap.maps.app.compare_runner import run_comparison
 from evmap.maps.noise import noise_evidence
+from evmap.maps.observation import observe
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import parse_scenario
 from evmap.sources.sim.world import World
@@ -172,6 +173,30 @@ robot:
     assert ids[visible_glass(free, config)].tolist() == ["window"]  # the pane's foot is at its end: not inside
     blocked = World(parse_scenario(text.replace("CYL", "{id: c, center: [4.5, 3.5], radius: 0.2}"), "b.yaml"))
     assert visible_glass(blocked, config).tolist() == []
+
+
+def test_glass_heard_is_glass_whose_direct_echo_came_at_normal_incidence(config):
+    """Two legs either side of the sight line to a window leave the line clear, so the window is seen at
+    normal incidence, but every beam that holds the window's foot holds a leg, which echoes first."""
+    text = """
+version: 1
+name: glass-room
+world:
+  walls:
+    - {id: south, points: [[0, 0], [6, 0], [6, 3]]}
+    - {id: window, points: [[6, 3], [6, 4]], material: glass}
+    - {id: north, points: [[6, 4], [0, 4], [0, 0]]}
+  cylinders: [LEGS]
+robot:
+  poses: [[3, 3.5, 0]]
+"""
+    legs = "{id: a, center: [4.0, 3.3], radius: 0.1}, {id: b, center: [4.0, 3.7], radius: 0.1}"
+    for cylinders, heard in (("", ["window"]), (legs, [])):
+        world = World(parse_scenario(text.replace("LEGS", cylinders), "a.yaml"))
+        scans = [observe(world, i, config).sonar for i in range(len(world.poses))]
+        ids = world.surfaces().segment_ids
+        assert ids[visible_glass(world, config)].tolist() == ["window"]
+        assert ids[heard_glass(world, scans)].tolist() == heard
 
 
 def test_compare_command_writes_the_contract_files(tmp_path, capsys):

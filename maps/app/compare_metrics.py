@@ -46,6 +46,7 @@ from evmap.maps.observation import observe
 from evmap.maps.pipeline import fold_observation
 from evmap.sources.config_model import Config
 from evmap.sources.geometry import cast_rays, perpendicular_feet, point_segment_distances
+from evmap.sources.readings import SonarScan
 from evmap.sources.sim.scenario import Scenario
 from evmap.sources.sim.surfaces import Surfaces
 from evmap.sources.sim.world import World
@@ -60,6 +61,8 @@ __all__ = [
     "FREE_HAZARDS",
     "GLASS_RADIUS",
     "HAZARDS",
+    "HEARD",
+    "HEARD_TOLERANCE",
     "MAP_ERROR_STEP",
     "METRICS",
     "TRUTHS",
@@ -67,6 +70,7 @@ __all__ = [
     "belief_histograms",
     "fuse_configs",
     "fuse_rules",
+    "heard_glass",
     "line_beliefs",
     "map_error",
     "visible_glass",
@@ -85,6 +89,13 @@ HAZARDS = ("spurious_unidentified", "free_behind_walls")
 FREE_HAZARDS = ("free_behind_opaque", "free_seen_kept")
 """The free space's figures added in version 1.2 of the comparison's files: cells hidden by opaque surfaces
 alone, and the share of what the stripe saw free that the grid keeps free (written after every older column)."""
+
+HEARD = ("glass_heard_explained",)
+"""The glass figure added in version 1.3 of the comparison's files: of the glass walls the sonar really heard at
+normal incidence (:func:`heard_glass`), the share explained (written after every older column)."""
+
+HEARD_TOLERANCE = 0.05
+"""A direct echo of a glass wall within this (m) of the perpendicular distance to it came at normal incidence."""
 
 DISTANCES = ("map_error",)
 """The figures of :data:`METRICS`, :data:`HAZARDS` and :data:`FREE_HAZARDS` that are distances (m, at least 0);
@@ -140,8 +151,14 @@ DEFINITIONS = {
         f"places of a {SEEN_STEP} m lattice that a pose's stripe saw free (in front of the first opaque surface of "
         "the ray, which returned) and not within a cell of any surface, that the grid marks free / such places"
     ),
+    "glass_heard_explained": (
+        "the same share as `glass_explained` over the glass walls some pose's sonar really heard at normal "
+        f"incidence (a reading's first echo straight from the wall, within {HEARD_TOLERANCE} m of the perpendicular "
+        "distance: the wide beam often hears something nearer first)"
+    ),
 }
-"""What each of :data:`METRICS`, :data:`HAZARDS` and :data:`FREE_HAZARDS` measures, per world, config and rule (``summary.md`` prints it)."""
+"""What each of :data:`METRICS`, :data:`HAZARDS`, :data:`FREE_HAZARDS` and :data:`HEARD` measures, per world,
+config and rule (``summary.md`` prints it)."""
 
 TRUTHS = ("real", "noise")
 """The simulator's truths of a segment, in the order of the belief histograms' rows."""
@@ -181,12 +198,16 @@ def fuse_rules(scenario: Scenario, config: Config, rules: Sequence[str]) -> dict
 
 
 def world_metrics(
-    run: Run, glass: NDArray[np.intp] | None = None, seen: NDArray[np.float64] | None = None
+    run: Run,
+    glass: NDArray[np.intp] | None = None,
+    seen: NDArray[np.float64] | None = None,
+    heard: NDArray[np.intp] | None = None,
 ) -> dict[str, float | int | None]:
     """The figures of one rule on one world (module doc); ``None`` where a ratio has no denominator.
 
-    ``glass``: the indices of :func:`visible_glass` in the world's surfaces, and ``seen``: the places of
-    :func:`~evmap.maps.app.compare_hazards.stripe_seen`, if already computed (they do not depend on the rule).
+    ``glass`` and ``heard``: the indices of :func:`visible_glass` and :func:`heard_glass` in the world's
+    surfaces, and ``seen``: the places of :func:`~evmap.maps.app.compare_hazards.stripe_seen`, if already
+    computed (they do not depend on the rule).
     """
     store = run.map.segments
     noise = store.truth == "noise"
@@ -194,12 +215,11 @@ def world_metrics(
     surfaces = run.world.surfaces()
     if glass is None:
         glass = visible_glass(run.world, run.config)
+    if heard is None:
+        heard = heard_glass(run.world, [obs.sonar for obs in run.observations])
     lines = run.map.lines(min_belief=0.5)
     unidentified = np.array([u.xy for u in run.map.unidentified()], dtype=float).reshape(-1, 2)
-    explained = None
-    if len(glass):
-        d = point_segment_distances(unidentified[:, None], surfaces.p[glass], surfaces.q[glass])  # (U, G)
-        explained = float((d <= GLASS_RADIUS).any(axis=0).mean()) if len(unidentified) else 0.0
+    explained, heard_explained = (_explained(unidentified, surfaces, walls) for walls in (glass, heard))
     spurious, objects = spurious_unidentified(run.map, run.world)
     if seen is None:
         seen = stripe_seen(run.world, run.config)
@@ -224,7 +244,46 @@ def world_metrics(
         "real_eliminated": int((store.eliminated & real).sum()),
         "free_behind_opaque": behind_opaque / free if free else None,
         "free_seen_kept": kept / seen_free if seen_free else None,
+        "glass_heard_explained": heard_explained,
     }
+
+
+def _explained(objects: NDArray[np.float64], surfaces: Surfaces, walls: NDArray[np.intp]) -> float | None:
+    """The share of the ``walls`` (indices into the surfaces) with an object within :data:`GLASS_RADIUS`;
+    None without walls."""
+    if not len(walls):
+        return None
+    if not len(objects):
+        return 0.0
+    d = point_segment_distances(objects[:, None], surfaces.p[walls], surfaces.q[walls])  # (U, W)
+    return float((d <= GLASS_RADIUS).any(axis=0).mean())
+
+
+def heard_glass(world: World, scans: Sequence[SonarScan | None]) -> NDArray[np.intp]:
+    """Indices (into ``world.surfaces()``) of the LSL-transparent, sonar-specular walls some scan really heard at
+    normal incidence: a reading whose first echo came straight from the wall (the simulator's labels), within
+    :data:`HEARD_TOLERANCE` of the perpendicular distance from the scan's pose, the foot inside the wall.
+
+    >>> from evmap.maps.app.run import run_scenario
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.scenario import default_scenario
+    >>> run = run_scenario(default_scenario(), load_config())
+    >>> run.world.surfaces().segment_ids[heard_glass(run.world, [o.sonar for o in run.observations])].tolist()
+    ['east-window-1']
+    """
+    s = world.surfaces()
+    candidates = np.flatnonzero(~s.lsl_opaque & s.sonar_reflective)
+    heard = np.zeros(len(candidates), dtype=bool)
+    for scan in scans:
+        if scan is None or not len(candidates):
+            continue
+        t, foot = perpendicular_feet(scan.pose[:2], s.p[candidates], s.q[candidates])
+        dist = np.hypot(*(foot - scan.pose[:2]).T)
+        direct = scan.order == 1
+        for j in np.flatnonzero((t > 0) & (t < 1) & ~heard):
+            echo = direct & (scan.target == s.segment_ids[candidates[j]])
+            heard[j] = bool((np.abs(scan.ranges[echo] - dist[j]) <= HEARD_TOLERANCE).any())
+    return candidates[heard]
 
 
 def visible_glass(world: World, config: Config) -> NDArray[np.intp]:

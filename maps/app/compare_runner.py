@@ -28,7 +28,14 @@ from evmap.maps.app.compare_args import SYNCHRONOUS_BELOW
 from evmap.maps.app.compare_configs import config_names, resolve_config
 from evmap.maps.app.compare_executors import executor, interrupts_between_waits
 from evmap.maps.app.compare_hazards import stripe_seen, sunlight_seen_twice
-from evmap.maps.app.compare_metrics import WorldResult, belief_histograms, fuse_configs, visible_glass, world_metrics
+from evmap.maps.app.compare_metrics import (
+    WorldResult,
+    belief_histograms,
+    fuse_configs,
+    heard_glass,
+    visible_glass,
+    world_metrics,
+)
 from evmap.maps.app.compare_tables import Comparison, Tally
 from evmap.sources.plugins import load_plugins, refusal
 from evmap.sources.sim.worldgen import generate_world, scenario_yaml, world_seed
@@ -93,10 +100,17 @@ def compare_world(
     runs = fuse_configs(scenario, {c: resolve_config(c) for c in configs}, rules)
     first = next(iter(runs.values()))
     glass = visible_glass(first.world, first.config)
+    heard = heard_glass(first.world, [obs.sonar for obs in first.observations])  # the same scans for every config
     seen = stripe_seen(first.world, first.config)
     twice = int(sunlight_seen_twice(first.world, first.config))
     rows = tuple(
-        {"world": name, "config": c, "rule": rule, **world_metrics(run, glass, seen), "sunlight_seen_twice": twice}
+        {
+            "world": name,
+            "config": c,
+            "rule": rule,
+            **world_metrics(run, glass, seen, heard),
+            "sunlight_seen_twice": twice,
+        }
         for (c, rule), run in runs.items()
     )
     beliefs = {variant: belief_histograms(run) for variant, run in runs.items()}

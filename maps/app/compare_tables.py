@@ -4,7 +4,7 @@ The summary is built world by world (:class:`Tally`), in world order, so its
 memory does not grow with the number of worlds and its numbers do not depend
 on the parallelism: per config, rule and column, the mean over the worlds where
 the value is defined (empty ratios excluded) and, for each of the :data:`METRICS`
-and :data:`HAZARDS` (and :data:`FREE_HAZARDS`), a 95% Student t interval of that mean (``<metric>_lo``,
+and :data:`HAZARDS` (and :data:`FREE_HAZARDS`, :data:`HEARD`), a 95% Student t interval of that mean (``<metric>_lo``,
 ``<metric>_hi``), cut to the values the metric can take (a share within [0, 1], a distance at least 0:
 the mean lies there, so the cut interval covers it as often); and the :data:`POOLED` ratios, over the
 segments of all worlds. Against the first config and rule (the baseline), each other's paired
@@ -33,6 +33,7 @@ from evmap.maps.app.compare_metrics import (
     EXTRA_COLUMNS,
     FREE_HAZARDS,
     HAZARDS,
+    HEARD,
     METRICS,
     WorldResult,
 )
@@ -55,13 +56,14 @@ __all__ = [
 CONFIDENCE = 0.95
 """Coverage of the interval of each metric's mean over the worlds (Student t)."""
 
-_INTERVALS = (*METRICS, *HAZARDS, *FREE_HAZARDS)
+_INTERVALS = (*METRICS, *HAZARDS, *FREE_HAZARDS, *HEARD)
 """The figures given with intervals, and compared pairwise."""
 
 INTERVAL_COLUMNS = tuple(f"{m}_{end}" for m in _INTERVALS for end in ("lo", "hi"))
 """The interval columns of ``summary.csv``."""
 
 _OLD_INTERVALS = 2 * (len(METRICS) + len(HAZARDS))
+_NEW_INTERVALS = _OLD_INTERVALS + 2 * len(FREE_HAZARDS)  # 1.2's; 1.3's after
 
 POOLED = {
     "noise_recall_pooled": ("noise_eliminated", "noise_segments", False),
@@ -79,17 +81,19 @@ SUMMARY_COLUMNS = (
     *INTERVAL_COLUMNS[2 * len(METRICS) : _OLD_INTERVALS],
     *POOLED,
     *FREE_HAZARDS,
-    *INTERVAL_COLUMNS[_OLD_INTERVALS:],
+    *INTERVAL_COLUMNS[_OLD_INTERVALS:_NEW_INTERVALS],
+    *HEARD,
+    *INTERVAL_COLUMNS[_NEW_INTERVALS:],
 )
 """The columns of ``summary.csv``: those other tools read first, as older versions wrote them; new ones appended."""
 
-WORLD_COLUMNS = ("world", *COLUMNS, *EXTRA_COLUMNS, *FREE_HAZARDS)
+WORLD_COLUMNS = ("world", *COLUMNS, *EXTRA_COLUMNS, *FREE_HAZARDS, *HEARD)
 """The columns of ``worlds.csv``: older ones first."""
 
 PLOT_WORLDS = 2000
 """The per-world points of the first this many worlds are kept for the plots (memory stays bounded)."""
 
-_VALUES = (*COLUMNS[1:], *EXTRA_COLUMNS[1:], *FREE_HAZARDS)
+_VALUES = (*COLUMNS[1:], *EXTRA_COLUMNS[1:], *FREE_HAZARDS, *HEARD)
 
 Variant = tuple[str, str]
 """(config, rule): one map per world."""
@@ -337,7 +341,7 @@ def write_summary(comparison: Comparison, directory: Path) -> None:
 
 def summary_markdown(comparison: Comparison) -> str:
     """The summary table in Markdown: what was run, what each metric is, means with their intervals."""
-    shown = [*METRICS, *HAZARDS, *FREE_HAZARDS, *POOLED, "lines", "unidentified", "seconds_per_world"]
+    shown = [*METRICS, *HAZARDS, *FREE_HAZARDS, *HEARD, *POOLED, "lines", "unidentified", "seconds_per_world"]
     configs = ", ".join(f"`{c}`" for c in comparison.configs)
     out = [
         f"# Comparison: {comparison.worlds} worlds, seed {comparison.seed}, configs {configs}",
@@ -350,7 +354,7 @@ def summary_markdown(comparison: Comparison) -> str:
             "worlds."
         ),
         "",
-        *[f"- `{m}`: {DEFINITIONS[m]}." for m in (*METRICS, *HAZARDS, *FREE_HAZARDS)],
+        *[f"- `{m}`: {DEFINITIONS[m]}." for m in _INTERVALS],
         "- `noise_recall_pooled`, `real_loss_pooled`: the same ratios over the segments of all worlds together.",
         (
             "- `noise_recall_seen_twice`: pooled noise recall on the worlds where every sunlight region a pose "
