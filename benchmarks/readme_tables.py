@@ -18,7 +18,7 @@ from importlib.resources import files
 
 from evmap.maps.app.compare_args import DEFAULT_RULES
 from evmap.maps.app.compare_runner import run_comparison
-from evmap.maps.app.compare_tables import Comparison
+from evmap.maps.app.compare_tables import Comparison, markdown_table
 from evmap.maps.app.run import report, run_scenario
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import load_scenario
@@ -98,19 +98,7 @@ DIFFERENCE_COLUMNS = ("noise_recall", "real_loss", "glass_explained", "spurious_
 
 def difference_table(comparison: Comparison) -> str:
     """The paired differences from the first config and rule (``summary.md``'s), for :data:`DIFFERENCE_COLUMNS`."""
-    out = [
-        "| config | rule | " + " | ".join(RULE_COLUMNS[c][0] for c in DIFFERENCE_COLUMNS) + " |",
-        "| --- | --- | " + " | ".join("---:" for _ in DIFFERENCE_COLUMNS) + " |",
-    ]
-    for row in comparison.differences:
-        cells = []
-        for c in DIFFERENCE_COLUMNS:
-            cell = "" if row[c] is None else f"{row[c]:+.3f}"
-            if row[f"{c}_lo"] is not None:
-                cell += f" ({row[f'{c}_lo']:+.3f} to {row[f'{c}_hi']:+.3f})"
-            cells.append(cell)
-        out.append(f"| {row['config']} | {row['rule']} | " + " | ".join(cells) + " |")
-    return "\n".join(out)
+    return markdown_table(comparison.differences, DIFFERENCE_COLUMNS, dict.fromkeys(DIFFERENCE_COLUMNS, "+.3f"))
 
 
 def main() -> None:

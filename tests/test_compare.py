@@ -154,8 +154,7 @@ def test_bayes_cannot_hold_ignorance(open_room):
         assert line.belief == pytest.approx(line.plausibility)
 
 
-def test_glass_seen_at_normal_incidence_unless_obstructed(config):
-    text = """
+GLASS_ROOM = """
 version: 1
 name: glass-room
 world:
@@ -168,31 +167,23 @@ world:
 robot:
   poses: [[3, 3.5, 0]]
 """
-    free = World(parse_scenario(text.replace("CYL", ""), "a.yaml"))
+"""A room with a window east of the robot and a glass pane whose foot is at its end (CYL: its cylinders)."""
+
+
+def test_glass_seen_at_normal_incidence_unless_obstructed(config):
+    free = World(parse_scenario(GLASS_ROOM.replace("CYL", ""), "a.yaml"))
     ids = free.surfaces().segment_ids
     assert ids[visible_glass(free, config)].tolist() == ["window"]  # the pane's foot is at its end: not inside
-    blocked = World(parse_scenario(text.replace("CYL", "{id: c, center: [4.5, 3.5], radius: 0.2}"), "b.yaml"))
+    blocked = World(parse_scenario(GLASS_ROOM.replace("CYL", "{id: c, center: [4.5, 3.5], radius: 0.2}"), "b.yaml"))
     assert visible_glass(blocked, config).tolist() == []
 
 
 def test_glass_heard_is_glass_whose_direct_echo_came_at_normal_incidence(config):
     """Two legs either side of the sight line to a window leave the line clear, so the window is seen at
     normal incidence, but every beam that holds the window's foot holds a leg, which echoes first."""
-    text = """
-version: 1
-name: glass-room
-world:
-  walls:
-    - {id: south, points: [[0, 0], [6, 0], [6, 3]]}
-    - {id: window, points: [[6, 3], [6, 4]], material: glass}
-    - {id: north, points: [[6, 4], [0, 4], [0, 0]]}
-  cylinders: [LEGS]
-robot:
-  poses: [[3, 3.5, 0]]
-"""
     legs = "{id: a, center: [4.0, 3.3], radius: 0.1}, {id: b, center: [4.0, 3.7], radius: 0.1}"
     for cylinders, heard in (("", ["window"]), (legs, [])):
-        world = World(parse_scenario(text.replace("LEGS", cylinders), "a.yaml"))
+        world = World(parse_scenario(GLASS_ROOM.replace("CYL", cylinders), "a.yaml"))
         scans = [observe(world, i, config).sonar for i in range(len(world.poses))]
         ids = world.surfaces().segment_ids
         assert ids[visible_glass(world, config)].tolist() == ["window"]

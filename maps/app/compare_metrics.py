@@ -58,6 +58,7 @@ __all__ = [
     "DEFINITIONS",
     "DISTANCES",
     "EXTRA_COLUMNS",
+    "FIGURES",
     "FREE_HAZARDS",
     "GLASS_RADIUS",
     "HAZARDS",
@@ -93,6 +94,9 @@ alone, and the share of what the stripe saw free that the grid keeps free (writt
 HEARD = ("glass_heard_explained",)
 """The glass figure added in version 1.3 of the comparison's files: of the glass walls the sonar really heard at
 normal incidence (:func:`heard_glass`), the share explained (written after every older column)."""
+
+FIGURES = (*METRICS, *HAZARDS, *FREE_HAZARDS, *HEARD)
+"""Every figure given with its interval over the worlds and compared pairwise, in the files' order."""
 
 HEARD_TOLERANCE = 0.05
 """A direct echo of a glass wall within this (m) of the perpendicular distance to it came at normal incidence."""

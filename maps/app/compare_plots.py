@@ -15,7 +15,7 @@ from pathlib import Path
 from matplotlib.figure import Figure
 from matplotlib.transforms import offset_copy
 
-from evmap.maps.app.compare_metrics import BELIEF_BINS, FREE_HAZARDS, HAZARDS, HEARD, METRICS
+from evmap.maps.app.compare_metrics import BELIEF_BINS, FIGURES
 from evmap.maps.app.compare_tables import CONFIDENCE, Comparison
 
 __all__ = ["MARKERS", "PLOT_FILES", "SHIFT_POINTS", "write_plots"]
@@ -95,7 +95,7 @@ def plot_differences(comparison: Comparison, path: Path) -> None:
 def _panels(rows: Sequence[dict], labels: list[str], title: str, path: Path, zero: bool = False) -> None:
     """One panel per metric, a row per variant (the k-th marked as the k-th variant of the comparison, or
     the (k+1)-th with ``zero``, where a line marks no difference)."""
-    metrics = (*METRICS, *HAZARDS, *FREE_HAZARDS, *HEARD)
+    metrics = FIGURES
     fig = Figure(figsize=(3.0 * len(metrics), 0.45 * max(len(labels), 1) + 1.6))
     axes = fig.subplots(1, len(metrics), sharey=True)
     for ax, metric in zip(axes, metrics, strict=True):

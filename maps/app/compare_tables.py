@@ -31,6 +31,7 @@ from evmap.maps.app.compare_metrics import (
     DEFINITIONS,
     DISTANCES,
     EXTRA_COLUMNS,
+    FIGURES,
     FREE_HAZARDS,
     HAZARDS,
     HEARD,
@@ -48,6 +49,7 @@ __all__ = [
     "Comparison",
     "Tally",
     "WorldsWriter",
+    "markdown_table",
     "summary_markdown",
     "write_csv",
     "write_summary",
@@ -56,10 +58,7 @@ __all__ = [
 CONFIDENCE = 0.95
 """Coverage of the interval of each metric's mean over the worlds (Student t)."""
 
-_INTERVALS = (*METRICS, *HAZARDS, *FREE_HAZARDS, *HEARD)
-"""The figures given with intervals, and compared pairwise."""
-
-INTERVAL_COLUMNS = tuple(f"{m}_{end}" for m in _INTERVALS for end in ("lo", "hi"))
+INTERVAL_COLUMNS = tuple(f"{m}_{end}" for m in FIGURES for end in ("lo", "hi"))
 """The interval columns of ``summary.csv``."""
 
 _OLD_INTERVALS = 2 * (len(METRICS) + len(HAZARDS))
@@ -168,7 +167,7 @@ class Tally:
     def __post_init__(self) -> None:
         for v in self.variants:
             self.count[v], self.mean[v], self.m2[v] = (np.zeros(len(_VALUES)) for _ in range(3))
-            self.paired[v] = np.zeros((3, len(_INTERVALS)))
+            self.paired[v] = np.zeros((3, len(FIGURES)))
             self.pooled[v] = dict.fromkeys(_POOLED_SUMS, 0.0)
             self.rows_per_variant[v] = 0
             self.beliefs[v] = np.zeros((2, len(BELIEF_BINS) - 1), dtype=np.int64)
@@ -192,7 +191,7 @@ class Tally:
         base = rows.get(self.variants[0])
         for v in self.variants[1:] if base is not None else ():
             if v in rows:
-                values = [np.nan if rows[v][m] is None or base[m] is None else rows[v][m] - base[m] for m in _INTERVALS]
+                values = [np.nan if rows[v][m] is None or base[m] is None else rows[v][m] - base[m] for m in FIGURES]
                 _welford(self.paired[v], np.array(values, dtype=float))
         self.worlds += 1
 
@@ -214,7 +213,7 @@ class Tally:
             row: dict[str, Any] = {"config": v[0], "rule": v[1]}
             row.update({c: float(mean[k]) if count[k] else None for k, c in enumerate(_VALUES)})
             row["worlds"] = self.rows_per_variant[v]
-            for metric in _INTERVALS:
+            for metric in FIGURES:
                 k = _VALUES.index(metric)
                 lo, hi = _interval(count[k], mean[k], m2[k], (0.0, _top(metric)))
                 row[f"{metric}_lo"], row[f"{metric}_hi"] = lo, hi
@@ -231,7 +230,7 @@ class Tally:
         for v in self.variants[1:]:
             count, mean, m2 = self.paired[v]
             row: dict[str, Any] = {"config": v[0], "rule": v[1]}
-            for k, metric in enumerate(_INTERVALS):
+            for k, metric in enumerate(FIGURES):
                 row[metric] = float(mean[k]) if count[k] else None
                 row[f"{metric}_lo"], row[f"{metric}_hi"] = _interval(
                     count[k], mean[k], m2[k], (-_top(metric), _top(metric))
@@ -341,7 +340,7 @@ def write_summary(comparison: Comparison, directory: Path) -> None:
 
 def summary_markdown(comparison: Comparison) -> str:
     """The summary table in Markdown: what was run, what each metric is, means with their intervals."""
-    shown = [*METRICS, *HAZARDS, *FREE_HAZARDS, *HEARD, *POOLED, "lines", "unidentified", "seconds_per_world"]
+    shown = [*FIGURES, *POOLED, "lines", "unidentified", "seconds_per_world"]
     configs = ", ".join(f"`{c}`" for c in comparison.configs)
     out = [
         f"# Comparison: {comparison.worlds} worlds, seed {comparison.seed}, configs {configs}",
@@ -354,7 +353,7 @@ def summary_markdown(comparison: Comparison) -> str:
             "worlds."
         ),
         "",
-        *[f"- `{m}`: {DEFINITIONS[m]}." for m in _INTERVALS],
+        *[f"- `{m}`: {DEFINITIONS[m]}." for m in FIGURES],
         "- `noise_recall_pooled`, `real_loss_pooled`: the same ratios over the segments of all worlds together.",
         (
             "- `noise_recall_seen_twice`: pooled noise recall on the worlds where every sunlight region a pose "
@@ -365,19 +364,35 @@ def summary_markdown(comparison: Comparison) -> str:
             "`seconds_per_world`: the fusion time of the config and rule on a world."
         ),
         "",
-        "| " + " | ".join(["config", "rule", *shown]) + " |",
-        "| " + " | ".join(["---", "---", *["---:"] * len(shown)]) + " |",
+        markdown_table(comparison.summary, shown, {c: ".4f" for c in shown if c.startswith("seconds")}),
     ]
-    for row in comparison.summary:
+    return "\n".join(out + _differences_markdown(comparison)) + "\n"
+
+
+def markdown_table(rows: Sequence[dict[str, Any]], columns: Sequence[str], specs: dict[str, str] | None = None) -> str:
+    """A Markdown table of ``rows`` (their config, rule and ``columns``): each value formatted by its column's
+    format spec in ``specs`` (``.3f`` for the others), its interval (``<column>_lo``, ``_hi``) in brackets if it
+    has one, an empty cell for None.
+
+    >>> print(markdown_table([{"config": "a", "rule": "r", "x": 0.5, "x_lo": 0.25, "x_hi": 0.75, "y": None}], ["x", "y"]))
+    | config | rule | x | y |
+    | --- | --- | ---: | ---: |
+    | a | r | 0.500 [0.250, 0.750] |  |
+    """
+    out = [
+        "| " + " | ".join(["config", "rule", *columns]) + " |",
+        "| " + " | ".join(["---", "---", *["---:"] * len(columns)]) + " |",
+    ]
+    for row in rows:
         cells = []
-        for c in shown:
-            digits = 4 if c.startswith("seconds") else 3
-            cell = "" if row[c] is None else f"{row[c]:.{digits}f}"
+        for c in columns:
+            spec = (specs or {}).get(c, ".3f")
+            cell = "" if row[c] is None else format(row[c], spec)
             if row.get(f"{c}_lo") is not None:
-                cell += f" [{row[f'{c}_lo']:.3f}, {row[f'{c}_hi']:.3f}]"
+                cell += f" [{row[f'{c}_lo']:{spec}}, {row[f'{c}_hi']:{spec}}]"
             cells.append(cell)
         out.append("| " + " | ".join([row["config"], row["rule"], *cells]) + " |")
-    return "\n".join(out + _differences_markdown(comparison)) + "\n"
+    return "\n".join(out)
 
 
 def _differences_markdown(comparison: Comparison) -> list[str]:
@@ -393,17 +408,8 @@ def _differences_markdown(comparison: Comparison) -> list[str]:
             "cancels out)."
         ),
         "",
-        "| " + " | ".join(["config", "rule", *_INTERVALS]) + " |",
-        "| " + " | ".join(["---", "---", *["---:"] * len(_INTERVALS)]) + " |",
+        markdown_table(comparison.differences, FIGURES, dict.fromkeys(FIGURES, "+.3f")),
     ]
-    for row in comparison.differences:
-        cells = []
-        for m in _INTERVALS:
-            cell = "" if row[m] is None else f"{row[m]:+.3f}"
-            if row[f"{m}_lo"] is not None:
-                cell += f" [{row[f'{m}_lo']:+.3f}, {row[f'{m}_hi']:+.3f}]"
-            cells.append(cell)
-        out.append("| " + " | ".join([row["config"], row["rule"], *cells]) + " |")
     return out
 
 
