@@ -54,6 +54,7 @@ from numpy.typing import NDArray
 
 from evidential import MassFunction
 from evmap.maps.free_space import FreeSpaceParams
+from evmap.maps.mirror_echoes import heard_from, mirror_echoes
 from evmap.maps.sensed import Sensed, pose_sensed, sensed
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.maps.stripe_contour import stripe_bound
@@ -148,7 +149,10 @@ def drop_explained(bm: BeliefMap, config: Config, changed: Iterable[str] | None 
     behind = behind_stripes(bm, config, changed)
     for uid in behind:
         bm.remove_point(uid)
-    return removed + hidden + behind
+    mirrors = mirror_echoes(bm, config, BELIEVED)
+    for uid in mirrors:
+        bm.remove_point(uid)
+    return removed + hidden + behind + mirrors
 
 
 def behind_stripes(bm: BeliefMap, config: Config, changed: Iterable[str] | None = None) -> list[str]:
@@ -180,7 +184,7 @@ def behind_stripes(bm: BeliefMap, config: Config, changed: Iterable[str] | None 
     for uid in sorted(near):
         if g.nodes[uid]["kind"] != "unidentified":
             continue
-        heard = sorted(_heard_from(bm, uid))
+        heard = sorted(heard_from(bm, uid))
         for k in heard:
             if k not in poses:
                 poses[k] = pose_sensed(bm, k)
@@ -244,7 +248,7 @@ def behind_panes(bm: BeliefMap, config: Config) -> list[str]:
         return []
     ids, xy, start = [], [], []
     for u in bm.unidentified():
-        for pose in sorted(_heard_from(bm, u.id) & poses.keys()):
+        for pose in sorted(heard_from(bm, u.id) & poses.keys()):
             ids.append(u.id)
             xy.append(u.xy)
             start.append(poses[pose].origin)
@@ -274,7 +278,7 @@ def _panes(
     p, q = [], []
     for u in bm.unidentified(BELIEVED):
         xy = np.asarray(u.xy, dtype=float)
-        for pose in sorted(_heard_from(bm, u.id) & poses.keys()):
+        for pose in sorted(heard_from(bm, u.id) & poses.keys()):
             d = xy - poses[pose].origin
             n = float(np.hypot(*d))
             if n <= 0 or _stripe_at(poses[pose], xy, max_gap, radius):
@@ -302,11 +306,6 @@ def _stripe_at(s: Sensed, xy: NDArray[np.float64], angle: float, radius: float) 
     t = s.bearing[rays[ok]]
     ends = s.origin + r[ok, None] * np.column_stack([np.cos(t), np.sin(t)])
     return bool((np.hypot(*(ends - xy).T) <= radius).any())
-
-
-def _heard_from(bm: BeliefMap, uid: str) -> set[int]:
-    """The poses whose evidence the object's history records."""
-    return {r["pose"] for r in bm.graph.nodes[uid].get("history", ()) if "pose" in r}
 
 
 def _beyond(xy: NDArray[np.float64], p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -199,6 +199,15 @@ class UnidentifiedParams(_Params):
         "at: an object whose every path to the poses that heard it crosses another's pane, and lies more than "
         "merge_radius beyond it, is a multiple reflection and is removed; 0, the paper's method: no panes",
     )
+    mirror_tolerance: float = Field(
+        0.0,
+        ge=0,
+        description="an unidentified object whose mirror image in the line of a believed map line (its path from "
+        "each pose that heard it crossing the line, more than merge_radius beyond it, past the line's ends by at most "
+        "window_width and the line's length) lies within this (m) of a believed corner or line end is that "
+        "target's echo off the wall, or the glass continuing it, and is removed; 0, the paper's method: no mirror "
+        "images",
+    )
     behind_depth: float = Field(
         0.0,
         ge=0,

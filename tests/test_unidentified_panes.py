@@ -103,7 +103,8 @@ def test_pane_width_is_checked() -> None:
 def test_an_echo_beyond_a_wide_window_in_a_wall_is_a_double_bounce() -> None:
     """A generated room whose west wall has a window 2.55 m wide (the stripe returns nothing through it): the
     sonar's double bounce off the glass, placed 3 m outside, is beyond the chord across the window with
-    ``window_width`` 10 m, not with the free space's 2.5 m."""
+    ``window_width`` 10 m, not with the free space's 2.5 m (mirror images left out: ``mirror_tolerance``
+    removes that double bounce too)."""
     from evmap.maps.app.compare_hazards import surface_distances
     from evmap.maps.app.compare_metrics import fuse_rules
     from evmap.sources.sim.worldgen import generate_world, world_seed
@@ -112,6 +113,7 @@ def test_an_echo_beyond_a_wide_window_in_a_wall_is_a_double_bounce() -> None:
     default = load_config("default")
     data = default.to_data()
     data["unidentified"]["window_width"] = 2.5
+    data["unidentified"]["mirror_tolerance"] = 0.0
     narrow = config_from_data(data, "narrow")
     scenario = generate_world(world_seed(22, 4), WorldGenParams(column_max_share=0.0))
     far = {}

@@ -1,0 +1,102 @@
+"""Unidentified objects at the mirror image of a believed corner or wall end in a believed wall (or the glass
+continuing it) are that target's echo off the surface, not objects (``unidentified.mirror_tolerance``)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from evidential import MassFunction
+from evmap.maps import new_map
+from evmap.maps.mirror_echoes import MIRROR_MIN_LENGTH, mirror_echoes
+from evmap.maps.sensed import remember
+from evmap.maps.unidentified import BELIEVED as BELIEF
+from evmap.maps.unidentified import drop_explained
+from evmap.sources.config import config_from_data, load_config
+
+BELIEVED = {"real": 0.6, "real|noise": 0.4}
+DOUBTED = {"real": 0.4, "real|noise": 0.6}
+BEARING = np.radians(np.arange(-180.0, 180.0, 0.5))
+CORNER = (2.0, 1.5)
+"""A corner of two believed walls."""
+
+
+def _pose(bm, k: int, xy) -> None:
+    """A pose whose stripe sees a wall x = 5 within 40 degrees of east (nothing of the walls below)."""
+    rng = np.where(np.abs(BEARING) < np.radians(40), (5.0 - xy[0]) / np.cos(BEARING), np.nan)
+    rays = np.column_stack([BEARING, rng])
+    remember(bm, SimpleNamespace(pose_index=k, pose=np.array([*xy, 0.0]), rays=rays, sonar=None, all_returns=False))
+
+
+def _line(bm, name: str, p, q, mass=BELIEVED) -> None:
+    for end, xy in (("p", p), ("q", q)):
+        if f"{name}{end}" not in bm:
+            bm.add_point(f"{name}{end}", xy, "endpoint", MassFunction(bm.frame, mass))
+    bm.add_line(name, f"{name}p", f"{name}q", MassFunction(bm.frame, mass))
+
+
+def _map(name: str = "default", wall: float = 2.0):
+    """Poses 0 at (0, 0) and 1 at (3, -2.5), beyond y = -1; a believed wall y = -1 from x = -1 - ``wall`` to -1 (glass may
+    continue it, unseen); the corner at :data:`CORNER`, of two believed lines."""
+    bm = new_map(load_config(name))
+    _pose(bm, 0, (0.0, 0.0))
+    _pose(bm, 1, (3.0, -2.5))
+    _line(bm, "W", (-1.0 - wall, -1.0), (-1.0, -1.0))
+    bm.add_point("C", CORNER, "corner", MassFunction(bm.frame, BELIEVED))
+    bm.add_point("A", (2.0, 3.5), "endpoint", MassFunction(bm.frame, BELIEVED))
+    bm.add_point("B", (0.0, 1.5), "endpoint", MassFunction(bm.frame, BELIEVED))
+    bm.add_line("CA", "C", "A", MassFunction(bm.frame, BELIEVED))
+    bm.add_line("CB", "C", "B", MassFunction(bm.frame, BELIEVED))
+    return bm
+
+
+def _object(bm, name: str, xy, poses=(0,)) -> None:
+    """An object heard from ``poses``; doubted, so that it is no pane (``pane_width``)."""
+    bm.add_point(name, xy, "unidentified", MassFunction(bm.frame, DOUBTED), history=[{"pose": k} for k in poses])
+
+
+MIRROR = (2.0, -3.5)
+"""The corner's mirror image in the line y = -1."""
+
+
+def test_a_corner_s_mirror_image_in_a_wall_s_line_is_removed() -> None:
+    bm = _map()
+    assert bm.config.unidentified.mirror_tolerance == 0.25
+    _object(bm, "ghost", (MIRROR[0] + 0.1, MIRROR[1] - 0.1))  # the path crosses y = -1 at x = 0.6: glass beside W
+    _object(bm, "edge", (2.0, -5.5))  # the free end A's image
+    _object(bm, "off", (MIRROR[0] + 0.5, MIRROR[1]))  # 0.5 m from the image
+    _object(bm, "front", (1.0, -0.5))  # in front of the wall's line
+    assert mirror_echoes(bm, bm.config, BELIEF) == ["edge", "ghost"]
+    assert drop_explained(bm, bm.config, set()) == ["edge", "ghost"]
+    assert sorted(u.id for u in bm.unidentified()) == ["front", "off"]
+
+
+def test_an_object_another_pose_heard_otherwise_is_kept() -> None:
+    bm = _map()
+    _object(bm, "ghost", MIRROR, poses=(0,))
+    _object(bm, "both", MIRROR, poses=(0, 1))  # pose 1 heard it on its side of y = -1: no image
+    assert mirror_echoes(bm, bm.config, BELIEF) == ["ghost"]
+
+
+def test_no_mirror_in_a_short_or_doubted_line_nor_past_its_end_farther_than_it_is_long_or_than_a_window() -> None:
+    short = _map(wall=MIRROR_MIN_LENGTH - 0.1)
+    doubted = _map()
+    doubted.set_attrs("W", mass=MassFunction(doubted.frame, DOUBTED))
+    carried = _map(wall=1.5)  # the crossing at x = 0.6 lies 1.6 m past the end of a line 1.5 m long
+    far = _map()
+    far.set_attrs("Wp", xy=(-23.0, -1.0))
+    far.set_attrs("Wq", xy=(-11.0, -1.0))  # 12 m long, the crossing 11.6 m past its end: beyond window_width
+    paper = _map("paper")
+    for bm in (short, doubted, carried, far, paper):
+        _object(bm, "ghost", MIRROR)
+        assert mirror_echoes(bm, bm.config, BELIEF) == []
+    assert far.config.unidentified.window_width == 10.0 and paper.config.unidentified.mirror_tolerance == 0
+
+
+def test_mirror_tolerance_is_checked() -> None:
+    data = load_config("default").to_data()
+    data["unidentified"]["mirror_tolerance"] = -0.1
+    with pytest.raises(Exception, match="mirror_tolerance"):
+        config_from_data(data, "bad")
