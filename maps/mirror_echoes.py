@@ -12,12 +12,16 @@ when its path from the pose crosses the line through a believed map line at leas
 wall, no farther than the wall was seen), the object more than
 ``unidentified.merge_radius`` beyond it, and its mirror image in that line lies
 within ``unidentified.mirror_tolerance`` of a believed corner or of a believed
-line's free end. One explained from every pose that heard it is removed
-(:func:`mirror_echoes`, called by :func:`evmap.maps.unidentified.drop_explained`).
+line's free end; the path meets the line off its normal by more than the
+sonar's detection half-width (a surface met square answers first itself), and
+the target is in sight from where it meets it. One explained from every pose
+that heard it is removed (:func:`mirror_echoes`, called by
+:func:`evmap.maps.unidentified.drop_explained`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -25,11 +29,16 @@ from numpy.typing import NDArray
 
 from evmap.maps.sensed import pose_sensed
 from evmap.sources.config_model import Config
+from evmap.sources.geometry import crossings
+from evmap.sources.sim.sonar import echo_halfwidth
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["MIRROR_MIN_LENGTH", "heard_from", "mirror_echoes", "mirrored"]
+__all__ = ["MIRROR_MIN_LENGTH", "SIGHT_MARGIN", "heard_from", "mirror_echoes", "mirrored"]
+
+SIGHT_MARGIN = 0.05
+"""A map line this close (m) to the crossing or the target does not hide the target: both lie on lines."""
 
 MIRROR_MIN_LENGTH = 0.5
 """A map line shorter than this (m) is no mirror: its direction is known too loosely (a 1 cm error at
@@ -48,22 +57,33 @@ def mirror_echoes(bm: BeliefMap, config: Config, believed: float) -> list[str]:
     targets = np.array([c.xy for c in bm.corners(believed)] + free_ends, dtype=float).reshape(-1, 2)
     p, q = np.array([ln.p for ln in lines], dtype=float).reshape(-1, 2), np.array([ln.q for ln in lines]).reshape(-1, 2)
     long = np.hypot(*(q - p).T) >= MIRROR_MIN_LENGTH
-    p, q = p[long], q[long]
-    if not len(targets) or not len(p):
+    if not len(targets) or not long.any():
         return []
-    ids, start, xy = [], [], []
-    for u in bm.unidentified():
-        heard = [pose_sensed(bm, k) for k in sorted(heard_from(bm, u.id))]
-        if heard and all(s is not None for s in heard):  # else a pose it cannot judge: kept
-            ids.extend([u.id] * len(heard))
-            start.extend(s.origin for s in heard if s is not None)
-            xy.extend([u.xy] * len(heard))
-    if not ids:
-        return []
-    echo = mirrored(np.array(start), np.array(xy), p, q, targets, params.merge_radius, params.window_width)
-    explained = echo <= params.mirror_tolerance
-    path_ids = np.array(ids)
-    return sorted(set(path_ids[explained].tolist()) - set(path_ids[~explained].tolist()))
+    objects = bm.unidentified()
+    heard = {u.id: heard_from(bm, u.id) for u in objects}
+    poses = {k: pose_sensed(bm, k) for ks in heard.values() for k in ks}
+    # an object heard from a pose the map does not remember is kept
+    image = {u.id: True for u in objects if heard[u.id] and all(poses[k] is not None for k in heard[u.id])}
+    for k, s in sorted(poses.items()):
+        mine = [u for u in objects if u.id in image and k in heard[u.id]]
+        if s is None or not mine:
+            continue
+        sonar = s.sonar.params if s.sonar is not None else None
+        echo = mirrored(
+            np.tile(s.origin, (len(mine), 1)),
+            np.array([u.xy for u in mine], dtype=float),
+            p[long],
+            q[long],
+            targets,
+            params.mirror_tolerance,
+            params.merge_radius,
+            params.window_width,
+            halfwidth=None if sonar is None else lambda r, sonar=sonar: echo_halfwidth(np.ones_like(r), r, sonar),
+            walls=(p, q),
+        )
+        for u, e in zip(mine, echo.tolist(), strict=True):
+            image[u.id] &= e
+    return sorted(uid for uid, found in image.items() if found)
 
 
 def mirrored(
@@ -72,18 +92,35 @@ def mirrored(
     p: NDArray[np.float64],
     q: NDArray[np.float64],
     targets: NDArray[np.float64],
+    tolerance: float,
     beyond: float,
     reach: float,
-) -> NDArray[np.float64]:
-    """For each path ``start`` -> ``xy`` ((K, 2) each), the least distance from a point of ``targets`` (T, 2)
-    to the mirror image of ``xy`` in the line through a segment p-q ((L, 2) each) that the path crosses, ``xy``
-    more than ``beyond`` past it and the crossing past the segment's ends by at most ``reach`` and at most the
-    segment's length (a line is not carried on farther than it was seen); inf where none.
+    *,
+    halfwidth: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
+    walls: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+) -> NDArray[np.bool_]:
+    """Whether each path ``start`` -> ``xy`` ((K, 2) each) crosses the line through a segment p-q ((L, 2) each),
+    ``xy`` more than ``beyond`` past it and the crossing past the segment's ends by at most ``reach`` and at most
+    the segment's length (a line is not carried on farther than it was seen), where the mirror image of ``xy``
+    lies within ``tolerance`` of a point of ``targets`` (T, 2).
+
+    With ``halfwidth`` (the sonar's detection half-width, rad, of a wall at each range; negative where never
+    detected), a path that meets the line within that angle of its normal, at its range from ``start``, is no
+    mirror's: the surface would have answered first itself. With ``walls`` (segments p, q), a target behind
+    one of them, seen from the crossing (more than :data:`SIGHT_MARGIN` from either), is out of the sound's
+    reach.
 
     >>> wall = np.array([[0.0, 0.0]]), np.array([[1.0, 0.0]])  # the line y = 0, seen from above
     >>> corner = np.array([[3.0, 2.0]])
-    >>> mirrored(np.array([[1.0, 1.0], [1.0, 1.0]]), np.array([[3.0, -2.0], [3.0, 2.5]]), *wall, corner, 0.3, 5.0).tolist()
-    [0.0, inf]
+    >>> mirrored(np.array([[1.0, 1.0], [1.0, 1.0]]), np.array([[3.0, -2.0], [3.0, 2.5]]), *wall, corner, 0.25, 0.3, 5.0)
+    array([ True, False])
+    >>> screen = np.array([[2.0, 0.2]]), np.array([[2.0, 3.0]])  # between the crossing (1.67, 0) and the corner
+    >>> mirrored(np.array([[1.0, 1.0]]), np.array([[3.0, -2.0]]), *wall, corner, 0.25, 0.3, 5.0, walls=screen)
+    array([False])
+    >>> long_wall, ahead = (np.array([[0.0, 0.0]]), np.array([[4.0, 0.0]])), np.array([[3.0, 2.0]])
+    >>> square = np.array([[3.0, 1.0]]), np.array([[3.0, -2.0]]), *long_wall, ahead, 0.25, 0.3, 5.0  # its normal
+    >>> mirrored(*square), mirrored(*square, halfwidth=lambda r: np.full_like(r, 0.2))
+    (array([ True]), array([False]))
     """
     d = q - p
     length = np.maximum(np.hypot(*d.T), 1e-12)
@@ -92,15 +129,30 @@ def mirrored(
     side_start = np.einsum("kli,li->kl", start[:, None, :] - p[None], n)
     side_xy = np.einsum("kli,li->kl", xy[:, None, :] - p[None], n)
     crosses = (side_start * side_xy < 0) & (np.abs(side_xy) > beyond)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):  # a path along the line: it crosses nothing
         t = side_start / (side_start - side_xy)
-    at = start[:, None, :] + t[..., None] * (xy - start)[:, None, :]  # (K, L, 2) where the path crosses
-    along = np.einsum("kli,li->kl", at - p[None], u)
+        at = start[:, None, :] + t[..., None] * (xy - start)[:, None, :]  # (K, L, 2) where the path crosses
+        along = np.einsum("kli,li->kl", at - p[None], u)
     carry = np.minimum(length, reach)
     crosses &= (along >= -carry) & (along <= length + carry)
+    if halfwidth is not None:
+        path = xy - start
+        dist = np.maximum(np.hypot(*path.T), 1e-12)[:, None]
+        incidence = np.arccos(np.clip(np.abs(path @ n.T) / dist, 0.0, 1.0))  # (K, L): from the line's normal
+        with np.errstate(invalid="ignore"):
+            half = halfwidth(np.where(crosses, t * dist, np.inf))
+        crosses &= (half < 0) | (incidence > half)
     image = xy[:, None, :] - 2 * side_xy[..., None] * n[None]  # (K, L, 2)
-    gap = np.hypot(*(image[:, :, None, :] - targets[None, None]).transpose(3, 0, 1, 2)).min(axis=2)
-    return np.where(crosses, gap, np.inf).min(axis=1, initial=np.inf)
+    gap = np.hypot(*(image[:, :, None, :] - targets[None, None]).transpose(3, 0, 1, 2))  # (K, L, T)
+    k, line, j = np.nonzero(crosses[..., None] & (gap <= tolerance))
+    if walls is not None and len(k) and len(walls[0]):
+        a, leg = at[k, line], targets[j] - at[k, line]
+        s, w = crossings(a[:, None], leg[:, None], walls[0][None], (walls[1] - walls[0])[None])
+        margin = SIGHT_MARGIN / np.maximum(np.hypot(*leg.T), 1e-12)[:, None]
+        k = k[~((w >= 0) & (w <= 1) & (s > margin) & (s < 1 - margin)).any(axis=1)]
+    found = np.zeros(len(start), dtype=bool)
+    found[k] = True
+    return found
 
 
 def heard_from(bm: BeliefMap, uid: str) -> set[int]:

@@ -204,9 +204,9 @@ class UnidentifiedParams(_Params):
         ge=0,
         description="an unidentified object whose mirror image in the line of a believed map line (its path from "
         "each pose that heard it crossing the line, more than merge_radius beyond it, past the line's ends by at most "
-        "window_width and the line's length) lies within this (m) of a believed corner or line end is that "
-        "target's echo off the wall, or the glass continuing it, and is removed; 0, the paper's method: no mirror "
-        "images",
+        "window_width and the line's length, off its normal by more than the sonar's half-width) lies within this "
+        "(m) of a believed corner or line end in sight is that target's echo off the wall, or the glass "
+        "continuing it, and is removed; 0, the paper's method: no mirror images",
     )
     behind_depth: float = Field(
         0.0,

@@ -15,6 +15,8 @@ from evmap.maps.sensed import remember
 from evmap.maps.unidentified import BELIEVED as BELIEF
 from evmap.maps.unidentified import drop_explained
 from evmap.sources.config import config_from_data, load_config
+from evmap.sources.params import SonarParams
+from evmap.sources.readings import SonarScan
 
 BELIEVED = {"real": 0.6, "real|noise": 0.4}
 DOUBTED = {"real": 0.4, "real|noise": 0.6}
@@ -23,11 +25,11 @@ CORNER = (2.0, 1.5)
 """A corner of two believed walls."""
 
 
-def _pose(bm, k: int, xy) -> None:
+def _pose(bm, k: int, xy, sonar=None) -> None:
     """A pose whose stripe sees a wall x = 5 within 40 degrees of east (nothing of the walls below)."""
     rng = np.where(np.abs(BEARING) < np.radians(40), (5.0 - xy[0]) / np.cos(BEARING), np.nan)
     rays = np.column_stack([BEARING, rng])
-    remember(bm, SimpleNamespace(pose_index=k, pose=np.array([*xy, 0.0]), rays=rays, sonar=None, all_returns=False))
+    remember(bm, SimpleNamespace(pose_index=k, pose=np.array([*xy, 0.0]), rays=rays, sonar=sonar, all_returns=False))
 
 
 def _line(bm, name: str, p, q, mass=BELIEVED) -> None:
@@ -39,7 +41,7 @@ def _line(bm, name: str, p, q, mass=BELIEVED) -> None:
 
 def _map(name: str = "default", wall: float = 2.0):
     """Poses 0 at (0, 0) and 1 at (3, -2.5), beyond y = -1; a believed wall y = -1 from x = -1 - ``wall`` to -1 (glass may
-    continue it, unseen); the corner at :data:`CORNER`, of two believed lines."""
+    continue it, unseen); the corner at :data:`CORNER`, of two believed lines; a believed line D."""
     bm = new_map(load_config(name))
     _pose(bm, 0, (0.0, 0.0))
     _pose(bm, 1, (3.0, -2.5))
@@ -49,6 +51,7 @@ def _map(name: str = "default", wall: float = 2.0):
     bm.add_point("B", (0.0, 1.5), "endpoint", MassFunction(bm.frame, BELIEVED))
     bm.add_line("CA", "C", "A", MassFunction(bm.frame, BELIEVED))
     bm.add_line("CB", "C", "B", MassFunction(bm.frame, BELIEVED))
+    _line(bm, "D", (1.0, 0.5), (1.0, 1.0))  # its free end (1, 0.5) in sight of the wall's line
     return bm
 
 
@@ -65,12 +68,13 @@ def test_a_corner_s_mirror_image_in_a_wall_s_line_is_removed() -> None:
     bm = _map()
     assert bm.config.unidentified.mirror_tolerance == 0.25
     _object(bm, "ghost", (MIRROR[0] + 0.1, MIRROR[1] - 0.1))  # the path crosses y = -1 at x = 0.6: glass beside W
-    _object(bm, "edge", (2.0, -5.5))  # the free end A's image
+    _object(bm, "edge", (1.0, -2.5))  # the free end Dp's image
+    _object(bm, "hidden", (2.0, -5.5))  # the free end A's image, A behind the line CB seen from y = -1
     _object(bm, "off", (MIRROR[0] + 0.5, MIRROR[1]))  # 0.5 m from the image
     _object(bm, "front", (1.0, -0.5))  # in front of the wall's line
     assert mirror_echoes(bm, bm.config, BELIEF) == ["edge", "ghost"]
     assert drop_explained(bm, bm.config, set()) == ["edge", "ghost"]
-    assert sorted(u.id for u in bm.unidentified()) == ["front", "off"]
+    assert sorted(u.id for u in bm.unidentified()) == ["front", "hidden", "off"]
 
 
 def test_an_object_another_pose_heard_otherwise_is_kept() -> None:
@@ -78,6 +82,20 @@ def test_an_object_another_pose_heard_otherwise_is_kept() -> None:
     _object(bm, "ghost", MIRROR, poses=(0,))
     _object(bm, "both", MIRROR, poses=(0, 1))  # pose 1 heard it on its side of y = -1: no image
     assert mirror_echoes(bm, bm.config, BELIEF) == ["ghost"]
+
+
+def test_no_mirror_met_square_to_its_normal_where_the_sonar_heard_the_pose_s_readings() -> None:
+    """A path that meets the mirror's line within the sonar's half-width of its normal would have been answered by
+    the mirror itself, first: the free end B's image (0, -3.5) in y = -1 is heard straight across it."""
+    bm = _map()
+    _object(bm, "square", (0.0, -3.5))
+    assert mirror_echoes(bm, bm.config, BELIEF) == ["square"]  # no readings of the pose: geometry alone
+    heard = _map()
+    angles = np.radians(np.arange(0.0, 360.0, 1.8))
+    _pose(heard, 0, (0.0, 0.0), SonarScan.from_readings(angles, np.full(len(angles), 3.5), SonarParams()))
+    _object(heard, "square", (0.0, -3.5))
+    _object(heard, "ghost", MIRROR)  # met 30 degrees off the normal
+    assert mirror_echoes(heard, heard.config, BELIEF) == ["ghost"]
 
 
 def test_no_mirror_in_a_short_or_doubted_line_nor_past_its_end_farther_than_it_is_long_or_than_a_window() -> None:
