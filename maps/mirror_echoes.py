@@ -50,7 +50,8 @@ def mirror_echoes(bm: BeliefMap, config: Config, believed: float) -> list[str]:
     or free end in the line through a believed map line (module doc; believed: Bel(real) at least ``believed``).
     None when ``unidentified.mirror_tolerance`` is 0."""
     params = config.unidentified
-    if params.mirror_tolerance <= 0:
+    objects = bm.unidentified() if params.mirror_tolerance > 0 else []
+    if not objects:
         return []
     g, lines = bm.graph, bm.lines(believed)
     free_ends = [xy for ln in lines for n, xy in ((ln.u, ln.p), (ln.v, ln.q)) if g.nodes[n]["kind"] == "endpoint"]
@@ -59,7 +60,6 @@ def mirror_echoes(bm: BeliefMap, config: Config, believed: float) -> list[str]:
     long = np.hypot(*(q - p).T) >= MIRROR_MIN_LENGTH
     if not len(targets) or not long.any():
         return []
-    objects = bm.unidentified()
     heard = {u.id: heard_from(bm, u.id) for u in objects}
     poses = {k: pose_sensed(bm, k) for ks in heard.values() for k in ks}
     # an object heard from a pose the map does not remember is kept
