@@ -41,6 +41,11 @@ believed: one lying more than that beyond the stripe's contour
 pose that heard it is a multiple reflection made before the lines it lies behind
 were believed, and is removed (:func:`behind_stripes`; only the objects the
 update's changed lines may hide are judged).
+
+With ``unidentified.mirror_tolerance``, an object at the mirror image of a
+believed corner or wall end in the line of a believed wall, from every pose that
+heard it, is that target's echo off the wall or the glass continuing it, and is
+removed (:mod:`evmap.maps.mirror_echoes`).
 """
 
 from __future__ import annotations
@@ -130,15 +135,17 @@ def add_unidentified(
 
 def drop_explained(bm: BeliefMap, config: Config, changed: Iterable[str] | None = None) -> list[str]:
     """Remove the unidentified objects a believed line now explains (within ``unidentified.explained_distance``),
-    those behind another object's pane (``unidentified.pane_width``, :func:`behind_panes`) and those behind the
+    those behind another object's pane (``unidentified.pane_width``, :func:`behind_panes`), those behind the
     stripe of every pose that heard them (``unidentified.behind_depth``, :func:`behind_stripes`; the objects
-    the lines ``changed`` may hide, every object when None).
+    the lines ``changed`` may hide, every object when None), and the mirror images of believed corners and wall
+    ends (``unidentified.mirror_tolerance``, :func:`~evmap.maps.mirror_echoes.mirror_echoes`).
 
     An object placed where the map had no believed line may find one there as later
     poses extend or confirm the lines: its echo is that line's, or it lies behind the
-    line. A pane heard by a later pose may stand between an object and every pose that
-    heard it. Nothing is removed when ``explained_distance``, ``pane_width`` and
-    ``behind_depth`` are 0 (the paper's method). Returns the removed ids.
+    line, or at the image of a corner in it. A pane heard by a later pose may stand between
+    an object and every pose that heard it. Nothing is removed when ``explained_distance``,
+    ``pane_width``, ``behind_depth`` and ``mirror_tolerance`` are 0 (the paper's method).
+    Returns the removed ids.
     """
     removed = _on_lines(bm, config.unidentified.explained_distance)
     for uid in removed:
