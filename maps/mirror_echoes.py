@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from evmap.maps.sensed import pose_sensed
+from evmap.maps.sensed import heard_from, pose_sensed
 from evmap.sources.config_model import Config
 from evmap.sources.geometry import crossings
 from evmap.sources.sim.sonar import echo_halfwidth
@@ -35,7 +35,7 @@ from evmap.sources.sim.sonar import echo_halfwidth
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["MIRROR_MIN_LENGTH", "SIGHT_MARGIN", "heard_from", "mirror_echoes", "mirrored"]
+__all__ = ["MIRROR_MIN_LENGTH", "SIGHT_MARGIN", "mirror_echoes", "mirrored"]
 
 SIGHT_MARGIN = 0.05
 """A map line this close (m) to the crossing or the target does not hide the target: both lie on lines."""
@@ -153,8 +153,3 @@ def mirrored(
     found = np.zeros(len(start), dtype=bool)
     found[k] = True
     return found
-
-
-def heard_from(bm: BeliefMap, uid: str) -> set[int]:
-    """The poses whose evidence the object's history records."""
-    return {r["pose"] for r in bm.graph.nodes[uid].get("history", ()) if "pose" in r}

@@ -33,6 +33,7 @@ __all__ = [
     "Sensed",
     "features_checkpoint",
     "forget",
+    "heard_from",
     "keep_features",
     "kept_features",
     "pose_sensed",
@@ -205,6 +206,12 @@ def sensed_near(bm: BeliefMap, bounds: tuple[float, float, float, float], reach:
     gap = np.hypot(*(origin - np.clip(origin, lo, hi)).T)
     near = np.flatnonzero(gap <= far)[-latest:]
     return [poses[k] for k in near.tolist()]
+
+
+def heard_from(bm: BeliefMap, uid: str) -> set[int]:
+    """The poses whose evidence the history of the map object ``uid`` records (the poses that heard an
+    unidentified object)."""
+    return {r["pose"] for r in bm.graph.nodes[uid].get("history", ()) if "pose" in r}
 
 
 def pose_sensed(bm: BeliefMap, pose_index: int) -> Sensed | None:

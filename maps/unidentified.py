@@ -59,8 +59,8 @@ from numpy.typing import NDArray
 
 from evidential import MassFunction
 from evmap.maps.free_space import FreeSpaceParams
-from evmap.maps.mirror_echoes import heard_from, mirror_echoes
-from evmap.maps.sensed import Sensed, pose_sensed, sensed
+from evmap.maps.mirror_echoes import mirror_echoes
+from evmap.maps.sensed import Sensed, heard_from, pose_sensed, sensed
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.maps.stripe_contour import stripe_bound
 from evmap.sources.config_model import Config
