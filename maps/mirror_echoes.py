@@ -56,24 +56,26 @@ def mirror_echoes(bm: BeliefMap, config: Config, believed: float) -> list[str]:
     g, lines = bm.graph, bm.lines(believed)
     free_ends = [xy for ln in lines for n, xy in ((ln.u, ln.p), (ln.v, ln.q)) if g.nodes[n]["kind"] == "endpoint"]
     targets = np.array([c.xy for c in bm.corners(believed)] + free_ends, dtype=float).reshape(-1, 2)
-    p, q = np.array([ln.p for ln in lines], dtype=float).reshape(-1, 2), np.array([ln.q for ln in lines]).reshape(-1, 2)
+    p = np.array([ln.p for ln in lines], dtype=float).reshape(-1, 2)
+    q = np.array([ln.q for ln in lines], dtype=float).reshape(-1, 2)
     long = np.hypot(*(q - p).T) >= MIRROR_MIN_LENGTH
-    if not len(targets) or not long.any():
+    mp, mq = p[long], q[long]
+    if not len(targets) or not len(mp):
         return []
     heard = {u.id: heard_from(bm, u.id) for u in objects}
     poses = {k: pose_sensed(bm, k) for ks in heard.values() for k in ks}
     # an object heard from a pose the map does not remember is kept
     image = {u.id: True for u in objects if heard[u.id] and all(poses[k] is not None for k in heard[u.id])}
     for k, s in sorted(poses.items()):
-        mine = [u for u in objects if u.id in image and k in heard[u.id]]
+        mine = [u for u in objects if image.get(u.id) and k in heard[u.id]]  # not yet refuted by another pose
         if s is None or not mine:
             continue
         sonar = s.sonar.params if s.sonar is not None else None
         echo = mirrored(
             np.tile(s.origin, (len(mine), 1)),
             np.array([u.xy for u in mine], dtype=float),
-            p[long],
-            q[long],
+            mp,
+            mq,
             targets,
             params.mirror_tolerance,
             params.merge_radius,
@@ -82,7 +84,7 @@ def mirror_echoes(bm: BeliefMap, config: Config, believed: float) -> list[str]:
             walls=(p, q),
         )
         for u, e in zip(mine, echo.tolist(), strict=True):
-            image[u.id] &= e
+            image[u.id] = e
     return sorted(uid for uid, found in image.items() if found)
 
 
