@@ -6,10 +6,11 @@ first (a wall, or the glass that continues it, which the stripe goes through) an
 then such a target comes back by the same two legs, and the sonar places the echo
 at their summed range along the first leg: beyond the surface, at the target's
 mirror image in it. An unidentified object is explained from a pose that heard it
-when its path from the pose crosses the line through a believed map line at least
-:data:`MIRROR_MIN_LENGTH` long, past the line's ends by at most
-``unidentified.window_width`` and at most the line's length (glass continuing the
-wall, no farther than the wall was seen), the object more than
+when its path from the pose crosses the line through a mirror at least
+:data:`MIRROR_MIN_LENGTH` long (a believed map line, or the face of a pane: glass
+some pose heard at normal incidence), past the mirror's ends by at most
+``unidentified.window_width`` and at most its length (glass continuing the
+wall or the pane, no farther than the mirror was seen), the object more than
 ``unidentified.merge_radius`` beyond it, and its mirror image in that line lies
 within ``unidentified.mirror_tolerance`` of a believed corner or of a believed
 line's free end; the path meets the line off its normal by more than the
@@ -45,10 +46,16 @@ MIRROR_MIN_LENGTH = 0.5
 each end turns a 0.5 m line by 2.3 degrees, which moves an image 4 m beyond it by 0.3 m)."""
 
 
-def mirror_echoes(bm: BeliefMap, config: Config, believed: float) -> list[str]:
+def mirror_echoes(
+    bm: BeliefMap,
+    config: Config,
+    believed: float,
+    panes: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+) -> list[str]:
     """The unidentified objects that are, from every pose that heard them, the mirror image of a believed corner
-    or free end in the line through a believed map line (module doc; believed: Bel(real) at least ``believed``).
-    None when ``unidentified.mirror_tolerance`` is 0."""
+    or free end in the line through a believed map line or a pane's face (module doc; believed: Bel(real) at
+    least ``believed``; ``panes``: the faces' ends p and q, (F, 2) each). None when
+    ``unidentified.mirror_tolerance`` is 0."""
     params = config.unidentified
     objects = bm.unidentified() if params.mirror_tolerance > 0 else []
     if not objects:
@@ -58,8 +65,10 @@ def mirror_echoes(bm: BeliefMap, config: Config, believed: float) -> list[str]:
     targets = np.array([c.xy for c in bm.corners(believed)] + free_ends, dtype=float).reshape(-1, 2)
     p = np.array([ln.p for ln in lines], dtype=float).reshape(-1, 2)
     q = np.array([ln.q for ln in lines], dtype=float).reshape(-1, 2)
-    long = np.hypot(*(q - p).T) >= MIRROR_MIN_LENGTH
-    mp, mq = p[long], q[long]
+    fp, fq = panes if panes is not None else (p[:0], q[:0])
+    mp, mq = np.concatenate([p, fp]), np.concatenate([q, fq])
+    long = np.hypot(*(mq - mp).T) >= MIRROR_MIN_LENGTH
+    mp, mq = mp[long], mq[long]
     if not len(targets) or not len(mp):
         return []
     heard = {u.id: heard_from(bm, u.id) for u in objects}

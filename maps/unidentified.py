@@ -43,9 +43,9 @@ were believed, and is removed (:func:`behind_stripes`; only the objects the
 update's changed lines may hide are judged).
 
 With ``unidentified.mirror_tolerance``, an object at the mirror image of a
-believed corner or wall end in the line of a believed wall, from every pose that
-heard it, is that target's echo off the wall or the glass continuing it, and is
-removed (:mod:`evmap.maps.mirror_echoes`).
+believed corner or wall end in the line of a believed wall or of a pane's face,
+from every pose that heard it, is that target's echo off the wall or the glass,
+and is removed (:mod:`evmap.maps.mirror_echoes`).
 """
 
 from __future__ import annotations
@@ -138,7 +138,8 @@ def drop_explained(bm: BeliefMap, config: Config, changed: Iterable[str] | None 
     those behind another object's pane (``unidentified.pane_width``, :func:`behind_panes`), those behind the
     stripe of every pose that heard them (``unidentified.behind_depth``, :func:`behind_stripes`; the objects
     the lines ``changed`` may hide, every object when None), and the mirror images of believed corners and wall
-    ends (``unidentified.mirror_tolerance``, :func:`~evmap.maps.mirror_echoes.mirror_echoes`).
+    ends in believed lines and panes (``unidentified.mirror_tolerance``,
+    :func:`~evmap.maps.mirror_echoes.mirror_echoes`).
 
     An object placed where the map had no believed line may find one there as later
     poses extend or confirm the lines: its echo is that line's, or it lies behind the
@@ -156,7 +157,11 @@ def drop_explained(bm: BeliefMap, config: Config, changed: Iterable[str] | None 
     behind = behind_stripes(bm, config, changed)
     for uid in behind:
         bm.remove_point(uid)
-    mirrors = mirror_echoes(bm, config, BELIEVED)
+    params = config.unidentified
+    panes = None
+    if params.pane_width > 0 and params.mirror_tolerance > 0:  # glass heard square mirrors too
+        panes = _panes(bm, {s.pose_index: s for s in sensed(bm)}, params.pane_width, params.merge_radius)
+    mirrors = mirror_echoes(bm, config, BELIEVED, panes)
     for uid in mirrors:
         bm.remove_point(uid)
     return removed + hidden + behind + mirrors

@@ -1,5 +1,5 @@
 """Unidentified objects at the mirror image of a believed corner or wall end in a believed wall (or the glass
-continuing it) are that target's echo off the surface, not objects (``unidentified.mirror_tolerance``)."""
+continuing it) or in a pane are that target's echo off the surface, not objects (``unidentified.mirror_tolerance``)."""
 
 from __future__ import annotations
 
@@ -75,6 +75,35 @@ def test_a_corner_s_mirror_image_in_a_wall_s_line_is_removed() -> None:
     assert mirror_echoes(bm, bm.config, BELIEF) == ["edge", "ghost"]
     assert drop_explained(bm, bm.config, set()) == ["edge", "ghost"]
     assert sorted(u.id for u in bm.unidentified()) == ["front", "hidden", "off"]
+
+
+def test_a_corner_s_mirror_image_in_a_pane_s_face_is_removed() -> None:
+    """Glass heard at normal incidence (a believed object the stripe saw through: a pane, square to the bearing it
+    was heard at) mirrors sound like a wall, also past the face's ends."""
+    maps = {}
+    for case in ("pane", "doubted", "no panes"):
+        config = load_config("default")
+        if case == "no panes":
+            data = config.to_data()
+            data["unidentified"]["pane_width"] = 0.0
+            config = config_from_data(data, "no panes")
+        bm = maps[case] = new_map(config)
+        _pose(bm, 0, (0.0, 0.0))
+        _pose(bm, 1, (-0.5, 0.0))
+        bm.add_point("C", CORNER, "corner", MassFunction(bm.frame, BELIEVED))
+        bm.add_point("A", (2.0, 3.5), "endpoint", MassFunction(bm.frame, BELIEVED))
+        bm.add_point("B", (0.0, 1.5), "endpoint", MassFunction(bm.frame, BELIEVED))
+        bm.add_line("CA", "C", "A", MassFunction(bm.frame, BELIEVED))
+        bm.add_line("CB", "C", "B", MassFunction(bm.frame, BELIEVED))
+        # heard straight below pose 1: the face y = -2 from x = -1.25 to 0.25 (pane_width 1.5)
+        mass = DOUBTED if case == "doubted" else BELIEVED
+        bm.add_point("pane", (-0.5, -2.0), "unidentified", MassFunction(bm.frame, mass), history=[{"pose": 1}])
+        _object(bm, "ghost", (2.0, -5.5))  # C's image in y = -2; its path crosses it at x = 0.73, past the face
+        _object(bm, "off", (2.5, -5.5))
+    assert drop_explained(maps["pane"], maps["pane"].config, set()) == ["ghost"]
+    assert sorted(u.id for u in maps["pane"].unidentified()) == ["off", "pane"]
+    for case in ("doubted", "no panes"):
+        assert drop_explained(maps[case], maps[case].config, set()) == []
 
 
 def test_an_object_another_pose_heard_otherwise_is_kept() -> None:
