@@ -14,8 +14,12 @@ wall or the pane, no farther than the mirror was seen), the object more than
 ``unidentified.merge_radius`` beyond it, and its mirror image in that line lies
 within ``unidentified.mirror_tolerance`` of a believed corner or of a believed
 line's free end; the path meets the line off its normal by more than the
-sonar's detection half-width (a surface met square answers first itself), and
-the target is in sight from where it meets it. One explained from every pose
+sonar's detection half-width (a surface met square answers first itself); where
+the mirror is carried on past its end over the foot of the pose's perpendicular,
+the pose heard something there square (a reading aimed within the half-width of
+the foot came back within ``merge_radius`` of its distance: glass carrying the
+mirror on would have answered); and the target is in sight from where the path
+meets the mirror. One explained from every pose
 that heard it is removed (:func:`mirror_echoes`, called by
 :func:`evmap.maps.unidentified.drop_explained`).
 """
@@ -36,7 +40,7 @@ from evmap.sources.sim.sonar import echo_halfwidth
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["MIRROR_MIN_LENGTH", "SIGHT_MARGIN", "mirror_echoes", "mirrored"]
+__all__ = ["MIRROR_MIN_LENGTH", "SIGHT_MARGIN", "may_stand", "mirror_echoes", "mirrored"]
 
 SIGHT_MARGIN = 0.05
 """A map line this close (m) to the crossing or the target does not hide the target: both lie on lines."""
@@ -91,6 +95,7 @@ def mirror_echoes(
             params.window_width,
             halfwidth=None if sonar is None else lambda r, sonar=sonar: echo_halfwidth(np.ones_like(r), r, sonar),
             walls=(p, q),
+            echoes=None if s.sonar is None else (s.sonar.angles, s.sonar.ranges),
         )
         for u, e in zip(mine, echo.tolist(), strict=True):
             image[u.id] = e
@@ -109,6 +114,7 @@ def mirrored(
     *,
     halfwidth: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
     walls: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    echoes: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> NDArray[np.bool_]:
     """Whether each path ``start`` -> ``xy`` ((K, 2) each) crosses the line through a segment p-q ((L, 2) each),
     ``xy`` more than ``beyond`` past it and the crossing past the segment's ends by at most ``reach`` and at most
@@ -119,7 +125,10 @@ def mirrored(
     detected), a path that meets the line within that angle of its normal, at its range from ``start``, is no
     mirror's: the surface would have answered first itself. With ``walls`` (segments p, q), a target behind
     one of them, seen from the crossing (more than :data:`SIGHT_MARGIN` from either), is out of the sound's
-    reach.
+    reach. With ``halfwidth`` and ``echoes`` (the beam axes, rad, and ranges of the sonar readings taken at
+    every ``start``: one pose's), a line carried past its end over the foot of the perpendicular from
+    ``start`` is not there when no reading aimed within the half-width of that foot came back within
+    ``beyond`` of its distance: a surface there would have been heard square.
 
     >>> wall = np.array([[0.0, 0.0]]), np.array([[1.0, 0.0]])  # the line y = 0, seen from above
     >>> corner = np.array([[3.0, 2.0]])
@@ -153,6 +162,12 @@ def mirrored(
         with np.errstate(invalid="ignore"):
             half = halfwidth(np.where(crosses, t * dist, np.inf))
         crosses &= (half < 0) | (incidence > half)
+        if echoes is not None:  # where carried on past an end square in front of the pose, it must be heard there
+            foot = np.einsum("kli,li->kl", start[:, None, :] - p[None], u)  # the perpendicular's foot, along the line
+            over = ((along < 0) & (foot < 0) & (foot >= along)) | ((along > length) & (foot > length) & (foot <= along))
+            k, line = np.nonzero(crosses & over)
+            toward = -np.sign(side_start[k, line])[:, None] * n[line]
+            crosses[k, line] = may_stand(np.abs(side_start[k, line]), toward, halfwidth, echoes, beyond)
     image = xy[:, None, :] - 2 * side_xy[..., None] * n[None]  # (K, L, 2)
     gap = np.hypot(*(image[:, :, None, :] - targets[None, None]).transpose(3, 0, 1, 2))  # (K, L, T)
     k, line, j = np.nonzero(crosses[..., None] & (gap <= tolerance))
@@ -164,3 +179,25 @@ def mirrored(
     found = np.zeros(len(start), dtype=bool)
     found[k] = True
     return found
+
+
+def may_stand(
+    d: NDArray[np.float64],
+    toward: NDArray[np.float64],
+    halfwidth: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    echoes: tuple[NDArray[np.float64], NDArray[np.float64]],
+    margin: float,
+) -> NDArray[np.bool_]:
+    """Whether a surface square to the sonar, ``d`` (N,) straight ``toward`` (N, 2: unit vectors) from it, may stand
+    there by its readings ``echoes`` (beam axes, rad, and ranges): it lies beyond detection range (``halfwidth``
+    negative), or no reading was aimed within the half-width of it, or one of those came back within ``margin`` of
+    ``d`` (from it, or from something nearer).
+
+    >>> echoes = np.radians([0.0, 90.0]), np.array([5.0, 1.0])  # east 5 m, north 1 m
+    >>> toward = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])  # east, north, west (where no reading aimed)
+    >>> may_stand(np.array([2.0, 1.0, 2.0]), toward, lambda d: np.full_like(d, 0.2), echoes, 0.3)
+    array([False,  True,  True])
+    """
+    off = np.abs((echoes[0][None] - np.arctan2(toward[:, 1], toward[:, 0])[:, None] + np.pi) % (2 * np.pi) - np.pi)
+    aimed = off <= halfwidth(d)[:, None]
+    return ~aimed.any(axis=1) | (aimed & (echoes[1][None] <= (d + margin)[:, None])).any(axis=1)

@@ -120,11 +120,29 @@ def test_no_mirror_met_square_to_its_normal_where_the_sonar_heard_the_pose_s_rea
     _object(bm, "square", (0.0, -3.5))
     assert mirror_echoes(bm, bm.config, BELIEF) == ["square"]  # no readings of the pose: geometry alone
     heard = _map()
-    angles = np.radians(np.arange(0.0, 360.0, 1.8))
-    _pose(heard, 0, (0.0, 0.0), SonarScan.from_readings(angles, np.full(len(angles), 3.5), SonarParams()))
+    _pose(heard, 0, (0.0, 0.0), _scan(square=1.0))
     _object(heard, "square", (0.0, -3.5))
     _object(heard, "ghost", MIRROR)  # met 30 degrees off the normal
     assert mirror_echoes(heard, heard.config, BELIEF) == ["ghost"]
+
+
+def test_no_mirror_carried_past_a_line_s_end_square_in_front_of_a_pose_that_heard_nothing_there() -> None:
+    """Glass carrying the wall y = -1 on past its end (x = -1) to the ghost's crossing (x = 0.6) passes 1 m straight
+    below pose 0, where the pose would have heard it square: readings that came back from 3.5 m there say that
+    nothing stands there. Readings from 1 m say something does (the test above)."""
+    bm = _map()
+    _pose(bm, 0, (0.0, 0.0), _scan(square=None))
+    _object(bm, "ghost", MIRROR)
+    assert mirror_echoes(bm, bm.config, BELIEF) == []
+
+
+def _scan(square: float | None) -> SonarScan:
+    """A full turn of readings from 3.5 m, but from ``square`` m within 20 degrees of straight down."""
+    angles = np.radians(np.arange(0.0, 360.0, 1.8))
+    ranges = np.full(len(angles), 3.5)
+    if square is not None:
+        ranges[np.abs(angles - np.radians(270.0)) <= np.radians(20.0)] = square
+    return SonarScan.from_readings(angles, ranges, SonarParams())
 
 
 def test_no_mirror_in_a_short_or_doubted_line_nor_past_its_end_farther_than_it_is_long_or_than_a_window() -> None:
