@@ -1,7 +1,7 @@
 """Unidentified objects that are the mirror image of a corner or a wall end in a smooth surface: its echo off it.
 
-A corner sends sound back the way it came, and a wall's free end sends some back
-(the map's lines are simulated with weak edges). Sound that meets a smooth surface
+A corner sends sound back the way it came, and so does a pillar, and a wall's free
+end sends some back (the map's lines are simulated with weak edges). Sound that meets a smooth surface
 first (a wall, or the glass that continues it, which the stripe goes through) and
 then such a target comes back by the same two legs, and the sonar places the echo
 at their summed range along the first leg: beyond the surface, at the target's
@@ -12,8 +12,8 @@ some pose heard at normal incidence), past the mirror's ends by at most
 ``unidentified.window_width`` and at most its length (glass continuing the
 wall or the pane, no farther than the mirror was seen), the object more than
 ``unidentified.merge_radius`` beyond it, and its mirror image in that line lies
-within ``unidentified.mirror_tolerance`` of a believed corner or of a believed
-line's free end; the path meets the line off its normal by more than the
+within ``unidentified.mirror_tolerance`` of a believed corner, a believed
+line's free end or another believed object (a pillar the map holds as one); the path meets the line off its normal by more than the
 sonar's detection half-width (a surface met square answers first itself); where
 the mirror is carried on past its end over the foot of the pose's perpendicular,
 the pose heard something there square (a reading aimed within the half-width of
@@ -56,8 +56,8 @@ def mirror_echoes(
     believed: float,
     panes: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> list[str]:
-    """The unidentified objects that are, from every pose that heard them, the mirror image of a believed corner
-    or free end in the line through a believed map line or a pane's face (module doc; believed: Bel(real) at
+    """The unidentified objects that are, from every pose that heard them, the mirror image of a believed corner,
+    free end or object in the line through a believed map line or a pane's face (module doc; believed: Bel(real) at
     least ``believed``; ``panes``: the faces' ends p and q, (F, 2) each). None when
     ``unidentified.mirror_tolerance`` is 0."""
     params = config.unidentified
@@ -66,7 +66,8 @@ def mirror_echoes(
         return []
     g, lines = bm.graph, bm.lines(believed)
     free_ends = [xy for ln in lines for n, xy in ((ln.u, ln.p), (ln.v, ln.q)) if g.nodes[n]["kind"] == "endpoint"]
-    targets = np.array([c.xy for c in bm.corners(believed)] + free_ends, dtype=float).reshape(-1, 2)
+    others = [u.xy for u in bm.unidentified(believed)]  # pillars and corners the map holds as objects
+    targets = np.array([c.xy for c in bm.corners(believed)] + free_ends + others, dtype=float).reshape(-1, 2)
     p = np.array([ln.p for ln in lines], dtype=float).reshape(-1, 2)
     q = np.array([ln.q for ln in lines], dtype=float).reshape(-1, 2)
     fp, fq = panes if panes is not None else (p[:0], q[:0])

@@ -106,6 +106,17 @@ def test_a_corner_s_mirror_image_in_a_pane_s_face_is_removed() -> None:
         assert drop_explained(maps[case], maps[case].config, set()) == []
 
 
+def test_the_mirror_image_of_a_believed_object_is_removed() -> None:
+    """A pillar the map holds as a believed object sends sound back the way it came, as a corner does; a doubted
+    object is no target."""
+    bm = _map()
+    bm.add_point("pillar", (-4.0, 1.0), "unidentified", MassFunction(bm.frame, BELIEVED), history=[{"pose": 1}])
+    _object(bm, "faint", (-5.0, 1.0))
+    _object(bm, "ghost", (-4.0, -3.0))  # the pillar's image in y = -1, its path crossing W at x = -1.33
+    _object(bm, "other", (-5.0, -3.0))  # the doubted object's image
+    assert mirror_echoes(bm, bm.config, BELIEF) == ["ghost"]
+
+
 def test_an_object_another_pose_heard_otherwise_is_kept() -> None:
     bm = _map()
     _object(bm, "ghost", MIRROR, poses=(0,))
