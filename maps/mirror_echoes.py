@@ -1,27 +1,27 @@
 """Unidentified objects that are the mirror image of a corner or a wall end in a smooth surface: its echo off it.
 
 A corner sends sound back the way it came, and so does a pillar, and a wall's free
-end sends some back (the map's lines are simulated with weak edges). Sound that meets a smooth surface
-first (a wall, or the glass that continues it, which the stripe goes through) and
-then such a target comes back by the same two legs, and the sonar places the echo
-at their summed range along the first leg: beyond the surface, at the target's
-mirror image in it. An unidentified object is explained from a pose that heard it
-when its path from the pose crosses the line through a mirror at least
-:data:`MIRROR_MIN_LENGTH` long (a believed map line, or the face of a pane: glass
-some pose heard at normal incidence), past the mirror's ends by at most
-``unidentified.window_width`` and at most its length (glass continuing the
-wall or the pane, no farther than the mirror was seen), the object more than
+end sends some back (the map's lines are simulated with weak edges). Sound that
+meets a smooth surface first (a wall, or the glass that continues it, which the
+stripe goes through) and then such a target comes back by the same two legs, and
+the sonar places the echo at their summed range along the first leg: beyond the
+surface, at the target's mirror image in it. An unidentified object is explained
+from a pose that heard it when its path from the pose crosses the line through a
+mirror at least :data:`MIRROR_MIN_LENGTH` long (a believed map line, or the face
+of a pane: glass some pose heard at normal incidence), past the mirror's ends by
+at most ``unidentified.window_width`` and at most its length (glass continuing
+the wall or the pane, no farther than the mirror was seen), the object more than
 ``unidentified.merge_radius`` beyond it, and its mirror image in that line lies
-within ``unidentified.mirror_tolerance`` of a believed corner, a believed
-line's free end or another believed object (a pillar the map holds as one); the path meets the line off its normal by more than the
-sonar's detection half-width (a surface met square answers first itself); where
-the mirror is carried on past its end over the foot of the pose's perpendicular,
-the pose heard something there square (a reading aimed within the half-width of
-the foot came back within ``merge_radius`` of its distance: glass carrying the
-mirror on would have answered); and the target is in sight from where the path
-meets the mirror. One explained from every pose
-that heard it is removed (:func:`mirror_echoes`, called by
-:func:`evmap.maps.unidentified.drop_explained`).
+within ``unidentified.mirror_tolerance`` of a believed corner, a believed line's
+free end or another believed object (a pillar the map holds as one); the path
+meets the line off its normal by more than the sonar's detection half-width (a
+surface met square answers first itself); where the mirror is carried on past
+its end over the foot of the pose's perpendicular, the pose heard something there
+square (a reading aimed within the half-width of the foot came back within
+``merge_radius`` of its distance: glass carrying the mirror on would have
+answered); and the target is in sight from where the path meets the mirror. One
+explained from every pose that heard it is removed (:func:`mirror_echoes`, called
+by :func:`evmap.maps.unidentified.drop_explained`).
 """
 
 from __future__ import annotations
