@@ -43,7 +43,7 @@ were believed, and is removed (:func:`behind_stripes`; only the objects the
 update's changed lines may hide are judged).
 
 With ``unidentified.mirror_tolerance``, an object at the mirror image of a
-believed corner or wall end in the line of a believed wall or of a pane's face,
+believed corner, wall end or object in the line of a believed wall or of a pane's face,
 from every pose that heard it, is that target's echo off the wall or the glass,
 and is removed (:mod:`evmap.maps.mirror_echoes`).
 """
@@ -137,8 +137,8 @@ def drop_explained(bm: BeliefMap, config: Config, changed: Iterable[str] | None 
     """Remove the unidentified objects a believed line now explains (within ``unidentified.explained_distance``),
     those behind another object's pane (``unidentified.pane_width``, :func:`behind_panes`), those behind the
     stripe of every pose that heard them (``unidentified.behind_depth``, :func:`behind_stripes`; the objects
-    the lines ``changed`` may hide, every object when None), and the mirror images of believed corners and wall
-    ends in believed lines and panes (``unidentified.mirror_tolerance``,
+    the lines ``changed`` may hide, every object when None), and the mirror images of believed corners, wall
+    ends and objects in believed lines and panes (``unidentified.mirror_tolerance``,
     :func:`~evmap.maps.mirror_echoes.mirror_echoes`).
 
     An object placed where the map had no believed line may find one there as later

@@ -202,11 +202,12 @@ class UnidentifiedParams(_Params):
     mirror_tolerance: float = Field(
         0.0,
         ge=0,
-        description="an unidentified object whose mirror image in the line of a believed map line (its path from "
-        "each pose that heard it crossing the line, more than merge_radius beyond it, past the line's ends by at most "
-        "window_width and the line's length, off its normal by more than the sonar's half-width) lies within this "
-        "(m) of a believed corner or line end in sight is that target's echo off the wall, or the glass "
-        "continuing it, and is removed; 0, the paper's method: no mirror images",
+        description="an unidentified object whose mirror image in the line of a believed map line or a pane's face "
+        "(its path from each pose that heard it crossing the line, more than merge_radius beyond it, past the "
+        "mirror's ends by at most window_width and its length and, where carried on square in front of the pose, "
+        "heard there; off its normal by more than the sonar's half-width) lies within this (m) of a believed "
+        "corner, line end or object in sight is that target's echo off the wall, or the glass, and is removed; "
+        "0, the paper's method: no mirror images",
     )
     behind_depth: float = Field(
         0.0,
