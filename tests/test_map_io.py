@@ -5,6 +5,7 @@ import json
 import math
 import os
 import re
+import stat
 import subprocess
 import sys
 from copy import deepcopy
@@ -70,6 +71,20 @@ def test_round_trip_is_lossless(bm, tmp_path):
     assert loaded.nearest_obstacle((2, 2), 0.0) == bm.nearest_obstacle((2, 2), 0.0)
     loaded.save(tmp_path / "again.json")
     assert (tmp_path / "again.json").read_bytes() == path.read_bytes()
+
+
+def test_saved_files_get_ordinary_permissions_and_keep_their_own(bm, tmp_path):
+    umask = os.umask(0o022)
+    os.umask(umask)
+    path = tmp_path / "map.json"
+    bm.save(path)
+    pgm, meta = bm.save_ros_map(tmp_path / "room", 0.05)
+    for written in (path, pgm, meta):  # what open() gives a new file, not the temporary file's 0600
+        assert stat.S_IMODE(written.stat().st_mode) == 0o666 & ~umask, written
+    path.chmod(0o600)  # the user's choice for a file written over stays
+    bm.save(path)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o600
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["map.json", "room.pgm", "room.yaml"]  # no temporary left
 
 
 def test_loaded_map_gives_the_same_occupancy_grid(bm, tmp_path):

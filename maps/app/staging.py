@@ -55,24 +55,9 @@ from evmap.maps.app.output_layout import (
     Staging,
 )
 from evmap.maps.app.output_lock import lock_output, process_alive
-from evmap.maps.atomic_file import write_atomic
+from evmap.maps.atomic_file import DIRECTORY_MODE, FILE_MODE, write_atomic
 
 __all__ = ["claim_output", "owned_entries", "write_text_atomic"]
-
-
-def _read_umask() -> int:
-    try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("Umask:"):
-                return int(line.split()[1], 8)
-    except OSError:
-        pass
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-_UMASK = _read_umask()  # read once, at import: os.umask() is process-wide and not thread-safe
 
 
 @contextmanager
@@ -112,7 +97,7 @@ def claim_output(
         except OSError as exc:
             raise OutputError(f"--out {out}: cannot write into {parent}: {exc.strerror or exc}") from None
         try:
-            path.chmod(0o777 & ~_UMASK)
+            path.chmod(DIRECTORY_MODE)
             yield Staging(out, path)
             _commit(path, out, force, layout)
         except OSError as exc:  # the disk filled up, or the staged files could not be written, during the run
@@ -185,7 +170,7 @@ def owned_entries(directory: Path, layout: Layout) -> tuple[list[str], list[str]
 def write_text_atomic(path: Path, text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` through a temporary file and a rename, with the umask's permissions
     (:func:`evmap.maps.atomic_file.write_atomic`; not synced: the staging directory is renamed into place whole)."""
-    write_atomic(path, text.encode("utf-8"), mode=0o666 & ~_UMASK, sync=False)
+    write_atomic(path, text.encode("utf-8"), mode=FILE_MODE, sync=False)
 
 
 # --------------------------------------------------------------------- checks
@@ -272,7 +257,7 @@ def _commit(staging: Path, out: Path, force: bool, layout: Layout) -> None:
     files = _walk(staging)
     for rel in files:
         target = staging / rel.rstrip("/")
-        target.chmod((0o777 if rel.endswith("/") else 0o666) & ~_UMASK)
+        target.chmod(DIRECTORY_MODE if rel.endswith("/") else FILE_MODE)
     write_text_atomic(staging / MARKER, json.dumps({"command": layout.command, "files": files}, indent=1) + "\n")
     old = None
     if out.exists() and any(out.iterdir()):
