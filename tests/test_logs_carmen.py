@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import gzip
+import os
 from pathlib import Path
 
 import numpy as np
@@ -135,6 +136,26 @@ def test_open_log_picks_the_reader(tmp_path: Path) -> None:
     assert len(list(open_log(DATA / "killian-excerpt.g2o"))) == 3
     with pytest.raises(LogError, match="no such log"):
         open_log(tmp_path / "missing.log")
+
+
+def test_damaged_gzip_and_files_that_are_no_log_are_refused_naming_them(tmp_path: Path) -> None:
+    data = INTEL.read_bytes()
+    (tmp_path / "cut.log.gz").write_bytes(data[: len(data) // 2])
+    damaged = bytearray(data)
+    damaged[len(data) // 3] ^= 0xFF
+    (tmp_path / "damaged.log.gz").write_bytes(bytes(damaged))
+    (tmp_path / "magic.log").write_bytes(b"\x1f\x8b")
+    for name in ("cut.log.gz", "magic.log"):
+        with pytest.raises(LogError, match=rf"{name}:\d+: gzip data damaged or cut short"):
+            list(open_log(tmp_path / name))
+    with pytest.raises(LogError, match=r"damaged.log.gz:\d+: "):  # the inflated garbage's line, or the gzip error
+        list(open_log(tmp_path / "damaged.log.gz"))
+    os.mkfifo(tmp_path / "pipe.log")  # a FIFO is refused at once, not read until a writer comes
+    with pytest.raises(LogError, match="pipe.log: not a regular file"):
+        list(open_log(tmp_path / "pipe.log"))
+    (tmp_path / "dir.g2o").mkdir()
+    with pytest.raises(LogError, match="dir.g2o: not a regular file"):
+        list(open_log(tmp_path / "dir.g2o"))
 
 
 def raw_version(path: Path, tmp_path: Path) -> Path:

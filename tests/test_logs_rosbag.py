@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -194,3 +195,26 @@ def test_refused_messages_name_topic_and_stamp(
     with pytest.raises(LogError) as info:
         list(read_rosbag(path, options))
     assert message in str(info.value)
+
+
+def test_files_that_are_no_bag_and_damaged_bags_are_refused_naming_them(tmp_path: Path) -> None:
+    (tmp_path / "text.bag").write_text("junk\n")
+    (tmp_path / "noise.bag").write_bytes(np.random.default_rng(0).bytes(4000))
+    (tmp_path / "empty_dir").mkdir()
+    (tmp_path / "bad_metadata").mkdir()
+    (tmp_path / "bad_metadata" / "metadata.yaml").write_text("x\n")
+    for name, message in [
+        ("text.bag", "text.bag: not a ROS bag evmap can read"),
+        ("noise.bag", "noise.bag: not a ROS bag evmap can read"),
+        ("empty_dir", "empty_dir: a directory, but no ROS 2 bag (it holds no metadata.yaml)"),
+        ("bad_metadata", "bad_metadata: not a ROS bag evmap can read"),
+    ]:
+        with pytest.raises(LogError, match=re.escape(message)):
+            list(read_rosbag(tmp_path / name))
+    odom = ("/odom", "nav_msgs/msg/Odometry")
+    path = write_bag(tmp_path / "whole.bag", 1, [(*odom, 1.0 + k, odometry(1.0 + k, k, 0.0, 0.0)) for k in range(200)])
+    data = path.read_bytes()
+    cut = tmp_path / "cut.bag"
+    cut.write_bytes(data[: len(data) // 2])  # a bag whose writing stopped half-way
+    with pytest.raises(LogError, match=r"cut.bag: (not a ROS bag evmap can read|damaged bag)"):
+        list(read_rosbag(cut))

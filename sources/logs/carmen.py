@@ -36,7 +36,8 @@ Checks, each a :class:`~evmap.sources.logs.scan.LogError` naming the file and
 line: a wrong field count, a field that is no number, a non-finite pose, the
 range checks of :meth:`~evmap.sources.logs.scan.LaserGeometry.ranges` (negative
 readings, units implausible for the declared ``unit``), a ROBOTLASER1 layout that
-does not fit its field of view.
+does not fit its field of view; gzip data damaged or cut short, and a path that is
+no regular file (:func:`text_lines`, which the g2o reader reads through too).
 
 Examples
 --------
@@ -51,10 +52,13 @@ Examples
 from __future__ import annotations
 
 import gzip
+import io
+import os
+import stat
+import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -77,9 +81,9 @@ __all__ = [
     "DEFAULT_MAX_RANGE",
     "DEFAULT_SONAR_MAX_RANGE",
     "CarmenOptions",
-    "open_text",
     "read_carmen",
     "robotlaser1",
+    "text_lines",
 ]
 
 DEFAULT_MAX_RANGE = 80.0
@@ -113,13 +117,29 @@ class CarmenOptions:
     sonar_beam_width_deg: float | None = None
 
 
-def open_text(path: str | Path) -> IO[str]:
-    """Open a text file for reading, gunzipping it if it starts with the gzip magic bytes."""
-    with open(path, "rb") as f:
-        gzipped = f.read(2) == b"\x1f\x8b"
-    if gzipped:
-        return gzip.open(path, "rt", encoding="latin-1")
-    return open(path, encoding="latin-1")
+def text_lines(path: str | Path) -> Iterator[tuple[int, str]]:
+    """The lines of a text file, numbered from 1, gunzipped if it starts with the gzip magic bytes.
+
+    The file is opened without blocking and refused unless it is a regular file (a
+    directory, or a FIFO that might never end); gzip data that is damaged or cut short,
+    or a file that cannot be read, is a :class:`LogError` naming the file and the line reached.
+    """
+    number = 0
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            os.close(fd)
+            raise LogError(f"{path}: not a regular file (a directory, FIFO, socket or device is no log)")
+        with os.fdopen(fd, "rb") as f:
+            gzipped = f.read(2) == b"\x1f\x8b"
+            f.seek(0)
+            with io.TextIOWrapper(gzip.GzipFile(fileobj=f) if gzipped else f, encoding="latin-1") as text:
+                for number, line in enumerate(text, start=1):
+                    yield number, line
+    except (EOFError, zlib.error, gzip.BadGzipFile) as exc:
+        raise LogError(f"{path}:{number + 1}: gzip data damaged or cut short ({exc})") from None
+    except OSError as exc:
+        raise LogError(f"{path}: cannot read the log: {exc.strerror or exc}") from None
 
 
 def read_carmen(path: str | Path, options: CarmenOptions | None = None) -> Log:
@@ -243,41 +263,38 @@ def _records(path: Path, options: CarmenOptions) -> Iterator[LogRecord]:
     state = _State(options)
     index = raw_scans = 0
     raw = None  # whether RAWLASER1 lines are the scans: the log has no ROBOTLASER1 nor FLASER line
-    with open_text(path) as f:
-        for number, line in enumerate(f, start=1):
-            words = line.split()
-            if not words or words[0].startswith("#"):
-                continue
-            where = f"{path}:{number}"
-            name = words[0]
-            if name == "PARAM":
-                if len(words) < 3:
-                    raise LogError(f"{where}: PARAM needs a name and a value")
-                state.params[words[1]] = words[2]
-                state.layouts.clear()
-            elif name == "FLASER":
-                yield _flaser(words, where, state, index)
-                index += 1
-            elif name == "ROBOTLASER1":
-                scan, robot = robotlaser1(words, where, options.unit)
-                yield LogRecord(index, scan, robot, state.sonar)
-                index += 1
-            elif name == "RAWLASER1":
-                raw = _only_raw_scans(path) if raw is None else raw
-                if raw:
-                    raw_scans += 1
-                    scan, _ = _laser_line(words, where, options.unit, 0)
-                    if state.odometry is not None:
-                        yield _placed(scan, state, where, index)
-                        index += 1
-            elif name == "ODOM":
-                if len(words) != 10:
-                    raise LogError(
-                        f"{where}: ODOM needs 10 fields (x y theta tv rv accel and 3 stamps), got {len(words)}"
-                    )
-                state.odometry = check_pose(_numbers(words[1:4], where, "ODOM pose"), where, "odometry pose")
-            elif name == "SONAR":
-                state.sonar = _sonar(words, where, options)
+    for number, line in text_lines(path):
+        words = line.split()
+        if not words or words[0].startswith("#"):
+            continue
+        where = f"{path}:{number}"
+        name = words[0]
+        if name == "PARAM":
+            if len(words) < 3:
+                raise LogError(f"{where}: PARAM needs a name and a value")
+            state.params[words[1]] = words[2]
+            state.layouts.clear()
+        elif name == "FLASER":
+            yield _flaser(words, where, state, index)
+            index += 1
+        elif name == "ROBOTLASER1":
+            scan, robot = robotlaser1(words, where, options.unit)
+            yield LogRecord(index, scan, robot, state.sonar)
+            index += 1
+        elif name == "RAWLASER1":
+            raw = _only_raw_scans(path) if raw is None else raw
+            if raw:
+                raw_scans += 1
+                scan, _ = _laser_line(words, where, options.unit, 0)
+                if state.odometry is not None:
+                    yield _placed(scan, state, where, index)
+                    index += 1
+        elif name == "ODOM":
+            if len(words) != 10:
+                raise LogError(f"{where}: ODOM needs 10 fields (x y theta tv rv accel and 3 stamps), got {len(words)}")
+            state.odometry = check_pose(_numbers(words[1:4], where, "ODOM pose"), where, "odometry pose")
+        elif name == "SONAR":
+            state.sonar = _sonar(words, where, options)
     if raw_scans and not index:
         raise LogError(
             f"{path}: none of the {raw_scans} RAWLASER1 scans could be placed: the log has no ODOM line before them"
@@ -286,8 +303,7 @@ def _records(path: Path, options: CarmenOptions) -> Iterator[LogRecord]:
 
 def _only_raw_scans(path: Path) -> bool:
     """Whether the log has no ROBOTLASER1 nor FLASER line (read through once, at its first RAWLASER1 line)."""
-    with open_text(path) as f:
-        return not any(line.startswith(("ROBOTLASER1 ", "FLASER ")) for line in f)
+    return not any(line.startswith(("ROBOTLASER1 ", "FLASER ")) for _, line in text_lines(path))
 
 
 def _placed(scan: LaserScan, state: _State, where: str, index: int) -> LogRecord:

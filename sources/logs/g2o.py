@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from evmap.sources.logs.carmen import open_text, robotlaser1
+from evmap.sources.logs.carmen import robotlaser1, text_lines
 from evmap.sources.logs.scan import UNITS, Log, LogError, LogRecord, Unit, check_pose, compose, relative
 
 __all__ = ["read_g2o"]
@@ -45,24 +45,23 @@ def read_g2o(path: str | Path, unit: Unit = "m") -> Log:
 def _records(path: Path, unit: Unit) -> Iterator[LogRecord]:
     vertex = None
     index = 0
-    with open_text(path) as f:
-        for number, line in enumerate(f, start=1):
-            words = line.split()
-            where = f"{path}:{number}"
-            if not words:
-                continue
-            if words[0] == "VERTEX_SE2":
-                if len(words) != 5:
-                    raise LogError(f"{where}: VERTEX_SE2 needs an id and x y theta, got {len(words) - 1} fields")
-                try:
-                    values = np.array(words[2:5], dtype=float)
-                except ValueError:
-                    raise LogError(f"{where}: VERTEX_SE2 pose {' '.join(words[2:5])!r} is not three numbers") from None
-                vertex = check_pose(values, where, "vertex pose")
-            elif words[0] == "ROBOTLASER1":
-                if vertex is None:
-                    raise LogError(f"{where}: ROBOTLASER1 before any VERTEX_SE2: no pose to attach the scan to")
-                scan, robot = robotlaser1(words, where, unit)
-                laser = compose(vertex, relative(robot, scan.pose))
-                yield LogRecord(index, replace(scan, pose=laser), vertex)
-                index += 1
+    for number, line in text_lines(path):
+        words = line.split()
+        where = f"{path}:{number}"
+        if not words:
+            continue
+        if words[0] == "VERTEX_SE2":
+            if len(words) != 5:
+                raise LogError(f"{where}: VERTEX_SE2 needs an id and x y theta, got {len(words) - 1} fields")
+            try:
+                values = np.array(words[2:5], dtype=float)
+            except ValueError:
+                raise LogError(f"{where}: VERTEX_SE2 pose {' '.join(words[2:5])!r} is not three numbers") from None
+            vertex = check_pose(values, where, "vertex pose")
+        elif words[0] == "ROBOTLASER1":
+            if vertex is None:
+                raise LogError(f"{where}: ROBOTLASER1 before any VERTEX_SE2: no pose to attach the scan to")
+            scan, robot = robotlaser1(words, where, unit)
+            laser = compose(vertex, relative(robot, scan.pose))
+            yield LogRecord(index, replace(scan, pose=laser), vertex)
+            index += 1

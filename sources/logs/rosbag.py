@@ -25,7 +25,9 @@ Checks, each a :class:`~evmap.sources.logs.scan.LogError` naming the bag, topic
 and stamp: a non-finite pose or transform, a beam layout that does not fit its
 ``angle_max``, a non-positive or non-finite ``range_max``, the range checks of
 :meth:`~evmap.sources.logs.scan.LaserGeometry.ranges`, a Range of impossible
-field of view or maximum range; missing or ambiguous topics.
+field of view or maximum range; missing or ambiguous topics; a file that is no bag,
+a directory without a ROS 2 bag's ``metadata.yaml``, and a damaged bag (naming the
+stamp of the last message read).
 """
 
 from __future__ import annotations
@@ -164,7 +166,14 @@ def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
     from rosbags.highlevel import AnyReader  # only when a bag is read: rosbags takes a tenth of a second to import
     from rosbags.typesys import Stores, get_typestore
 
-    with AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
+    if path.is_dir() and not (path / "metadata.yaml").is_file():
+        raise LogError(f"{path}: a directory, but no ROS 2 bag (it holds no metadata.yaml)")
+    reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
+    try:
+        reader.open()
+    except Exception as exc:  # noqa: BLE001 - whatever rosbags meets in a file that is no bag, or a damaged one
+        raise LogError(f"{path}: not a ROS bag evmap can read ({type(exc).__name__}: {exc})") from None
+    try:
         scan_topic, range_topics, odom_topic = _choose(reader, path, options)
         wanted = {scan_topic, odom_topic, *range_topics}
         connections = [c for c in reader.connections if c.topic in wanted or c.msgtype == TF]
@@ -172,8 +181,7 @@ def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
         odom: tuple[str, NDArray[np.float64]] | None = None
         latest: dict[str, tuple[float, str, float, float, float]] = {}
         index = scans = 0
-        for connection, _, raw in reader.messages(connections=connections):
-            msg = reader.deserialize(raw, connection.msgtype)
+        for connection, msg in _messages(reader, connections, path):
             topic = connection.topic
             if connection.msgtype == TF:
                 tf.add(msg, f"{path} {topic}")
@@ -211,6 +219,24 @@ def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
         if scans and not index:
             source = f"odometry on {odom_topic}" if odom_topic else f"tf to {options.world_frame!r}"
             raise LogError(f"{path} {scan_topic}: none of the {scans} scans could be placed in the world by {source}")
+    finally:
+        reader.close()
+
+
+def _messages(reader: AnyReader, connections: list[Any], path: Path) -> Iterator[tuple[Any, Any]]:
+    """The bag's messages on these connections, deserialized, in time order; a damaged one is a LogError."""
+    messages = reader.messages(connections=connections)
+    stamp = None
+    while True:
+        try:
+            connection, stamp, raw = next(messages)
+            msg = reader.deserialize(raw, connection.msgtype)
+        except StopIteration:
+            return
+        except Exception as exc:  # noqa: BLE001 - whatever rosbags meets in a damaged bag
+            after = "" if stamp is None else f" after the message of {stamp * 1e-9:.9f} s"
+            raise LogError(f"{path}: damaged bag{after} ({type(exc).__name__}: {exc})") from None
+        yield connection, msg
 
 
 def _scan(msg: Any, where: str, unit: Unit) -> LaserScan:
