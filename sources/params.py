@@ -122,6 +122,23 @@ class NoiseParams(_Params):
     inside_fraction: float = Field(0.99, gt=0, le=1, description="inside if this share of the length is in open space")
     outside_fraction: float = Field(0.01, ge=0, lt=1, description="outside if at most this share is in open space")
 
+    @model_validator(mode="after")
+    def _fractions_in_order(self) -> NoiseParams:
+        """Refuse an ``outside_fraction`` not below ``inside_fraction`` (a segment cannot be both).
+
+        >>> NoiseParams(inside_fraction=0.001)
+        Traceback (most recent call last):
+        ...
+        pydantic_core._pydantic_core.ValidationError: 1 validation error for NoiseParams
+          Value error, outside_fraction (0.01) must be below inside_fraction (0.001) [...]
+        ...
+        """
+        if self.outside_fraction >= self.inside_fraction:
+            raise ValueError(
+                f"outside_fraction ({self.outside_fraction}) must be below inside_fraction ({self.inside_fraction})"
+            )
+        return self
+
 
 class MergeParams(_Params):
     """Merging collinear segments."""

@@ -114,11 +114,6 @@ def relation(
     ['inside', 'partly_inside', 'outside']
     """
     params = params or NoiseParams()
-    if params.outside_fraction >= params.inside_fraction:
-        raise ValueError(
-            "noise.outside_fraction must be below noise.inside_fraction, got "
-            f"{params.outside_fraction} and {params.inside_fraction}"
-        )
     f = inside_fraction(p, q, open_space)
     code = (f > params.outside_fraction).astype(np.intp) + (f >= params.inside_fraction)
     return np.asarray(RELATIONS)[code]

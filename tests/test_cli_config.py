@@ -179,3 +179,14 @@ def test_explain_shows_a_row_in_total_conflict(capsys, tmp_path):
     assert (
         "with sonar_open_space (relation = outside): real 0.8, noise 0.1, real|noise 0.1\n    -> real 1; K = 0.1" in out
     )
+
+
+def test_check_refuses_what_run_would_refuse_naming_the_key_and_line(capsys, tmp_path):
+    text = Path(PAPER).read_text()
+    assert "  inside_fraction: 0.99\n" in text
+    path = tmp_path / "crossed.yaml"
+    path.write_text(text.replace("  inside_fraction: 0.99\n", "  inside_fraction: 0.001\n"))
+    code, out, err = run(capsys, "config", "check", str(path))
+    assert code == 2 and out == ""
+    assert f"{path}: noise: outside_fraction (0.01) must be below inside_fraction (0.001)" in err
+    assert "(line " in err and "Traceback" not in err

@@ -356,6 +356,6 @@ def test_relation_refuses_bad_segments(p, q, problem):
         relation(p, q, ROOM)
 
 
-def test_relation_refuses_crossed_fractions():
-    with pytest.raises(ValueError, match="outside_fraction must be below"):
-        relation([[0, 0]], [[1, 1]], ROOM, NoiseParams(inside_fraction=0.3, outside_fraction=0.5))
+def test_crossed_fractions_are_refused():
+    with pytest.raises(ValueError, match=r"outside_fraction \(0.5\) must be below inside_fraction \(0.3\)"):
+        NoiseParams(inside_fraction=0.3, outside_fraction=0.5)
