@@ -41,3 +41,36 @@ def test_a_closed_pipe_ends_quietly(reader):
     )
     assert result.returncode in (0, 141) and result.stderr == ""
     assert result.stdout.strip().endswith("valid") if reader == "head -1" else result.stdout == ""
+
+
+def test_an_interrupt_while_the_tool_tidies_up_after_the_command_is_one_line(monkeypatch, capsys):
+    from evmap.maps.app import cli
+
+    calls = []
+
+    def restore_interrupted(signum, handler):
+        calls.append(signum)
+        if len(calls) == 2:  # the second call restores SIGTERM's handler, after the command returned
+            raise KeyboardInterrupt
+        return signal.SIG_DFL
+
+    monkeypatch.setattr(cli.signal, "signal", restore_interrupted)
+    assert cli.main(["rules"]) == 130
+    out, err = capsys.readouterr()
+    assert err == "evmap: interrupted\n" and "dempster" in out
+
+
+def test_an_interrupt_while_the_command_line_loads_is_one_line(monkeypatch, capsys):
+    import importlib.abc
+
+    from evmap.maps import app
+
+    class Interrupting(importlib.abc.MetaPathFinder):
+        def find_spec(self, name, path=None, target=None):
+            if name == "evmap.maps.app.cli":
+                raise KeyboardInterrupt
+
+    monkeypatch.delitem(sys.modules, "evmap.maps.app.cli", raising=False)
+    monkeypatch.setattr(sys, "meta_path", [Interrupting(), *sys.meta_path])
+    assert app.main() == 130
+    assert capsys.readouterr().err == "evmap: interrupted\n"

@@ -72,8 +72,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     thread unless ``OPENBLAS_NUM_THREADS`` says otherwise: evmap's matrices are small, and starting the threads
     it would use costs more than they give (Dask's workers inherit the setting: one thread per worker process).
     Called from Python with ``argv``, the collector gets it back when the command returns and the environment
-    is left alone.
+    is left alone. Ctrl-C or SIGTERM ends the command with one line and status 130 / 143, whenever it comes:
+    during the command, or while the tool tidies up after it.
     """
+    try:
+        return _command(argv)
+    except KeyboardInterrupt:
+        print("evmap: interrupted", file=sys.stderr)
+        return 130
+    except Terminated:
+        print("evmap: terminated", file=sys.stderr)
+        return 143
+
+
+def _command(argv: Sequence[str] | None) -> int:
+    """:func:`main`, the signals aside."""
     if argv is None:
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     frozen = gc.get_freeze_count()
@@ -91,12 +104,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _closed_pipe()
         print(f"evmap: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("evmap: interrupted", file=sys.stderr)
-        return 130
-    except Terminated:
-        print("evmap: terminated", file=sys.stderr)
-        return 143
     finally:
         signal.signal(signal.SIGTERM, previous)
         if argv is not None and not frozen:
