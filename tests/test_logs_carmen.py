@@ -108,6 +108,12 @@ def test_millimetres_declared(tmp_path: Path) -> None:
         ("ROBOTLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 1 2 0.1 1 2 0.1 0 0 0 0 5.0 h 5.0", "needs 27"),
         ("RAWLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 5.0 h", "x.log:2: RAWLASER1 with 3 beams and 0 rem"),
         ("PARAM robot_front_laser_max", "x.log:2: PARAM needs a name and a value"),
+        ("FLASER 3 1.0 2.0 3.0 1e300 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0", "x.log:2: laser pose (1e+300, 0.0, 0.0): x"),
+        ("FLASER 3 1.0 2.0 3.0 0.5 0.0 1e308 0.5 0.0 0.0 10.0 host 10.0", "a heading of 1e+308 rad is no angle"),
+        ("FLASER 3 1.0 2.0 3.0 0.5 0.0 0.0 0.5 0.0 0.0 nan host 10.0", "x.log:2: FLASER timestamp nan is not finite"),
+        ("SONAR 0.26 1 1.0 1e300 0 0 3.0 host 3.0", "x.log:2: SONAR offset of sensor 0 (1e+300, 0.0, 0.0): x and y"),
+        ("ROBOTLASER1 0 nan 3.1416 1.5708 50 0.01 0 3 1 2 3 0 1 2 0.1 1 2 0.1 0 0 0 0 0 5.0 h 5.0", "is no angle"),
+        ("ROBOTLASER1 0 1e300 3.1416 1.5708 50 0.01 0 3 1 2 3 0 1 2 0.1 1 2 0.1 0 0 0 0 0 5.0 h 5.0", "is no angle"),
     ],
 )
 def test_malformed_lines_name_file_and_line(tmp_path: Path, line: str, message: str) -> None:
@@ -123,6 +129,14 @@ def test_metres_logged_as_millimetres_are_refused(tmp_path: Path) -> None:
     path = write(tmp_path, f"FLASER 12 {ranges} 0 0 0 0 0 0 1 host 1")
     with pytest.raises(LogError, match="x.log:1: median range 0.0015 m is implausibly short"):
         list(read_carmen(path, CarmenOptions(unit="mm")))
+
+
+def test_a_beam_spacing_no_laser_has_is_refused(tmp_path: Path) -> None:
+    path = write(tmp_path, "PARAM laser_front_laser_resolution 1e-300 h 0", FLASER)
+    with pytest.raises(
+        LogError, match=r"x.log:2: FLASER with 3 beams: beams 1.74533e-302 rad apart are closer than any"
+    ):
+        list(read_carmen(path))
 
 
 def test_bad_param_is_refused(tmp_path: Path) -> None:

@@ -159,6 +159,14 @@ def _numbers(words: list[str], where: str, what: str) -> NDArray[np.float64]:
         raise LogError(f"{where}: {what}: {bad!r} is not a number") from None
 
 
+def _stamp(words: list[str], where: str, kind: str) -> float:
+    """The line's ``ipc_timestamp`` (the third field from the end): a finite number of seconds."""
+    stamp = float(_numbers(words[-3:-2], where, f"{kind} timestamp")[0])
+    if not np.isfinite(stamp):
+        raise LogError(f"{where}: {kind} timestamp {stamp} is not finite")
+    return stamp
+
+
 def _is_number(word: str) -> bool:
     try:
         float(word)
@@ -220,7 +228,7 @@ def _laser_line(words: list[str], where: str, unit: Unit, after: int) -> tuple[L
     except ValueError as exc:
         raise LogError(f"{where}: {kind} {exc}") from None
     ranges = geometry.ranges(words[9 : 9 + n], where)
-    stamp = float(_numbers(words[-3:-2], where, "timestamp")[0])
+    stamp = _stamp(words, where, kind)
     return LaserScan(stamp, np.zeros(3), geometry.angles, ranges, geometry.max_range), 10 + n + m
 
 
@@ -327,7 +335,7 @@ def _flaser(words: list[str], where: str, state: _State, index: int) -> LogRecor
     laser = check_pose(_numbers(words[2 + n : 5 + n], where, "FLASER pose"), where, "laser pose")
     offset = state.param("robot_frontlaser_offset", where, positive=False) or 0.0
     robot = compose(laser, [-offset, 0.0, 0.0])
-    stamp = float(_numbers(words[-3:-2], where, "FLASER timestamp")[0])
+    stamp = _stamp(words, where, "FLASER")
     return LogRecord(index, LaserScan(stamp, laser, geometry.angles, ranges, geometry.max_range), robot, state.sonar)
 
 
@@ -343,8 +351,8 @@ def _sonar(words: list[str], where: str, options: CarmenOptions) -> RangeReading
         )
     raw = _numbers(words[3 : 3 + k], where, "SONAR readings") * UNITS[options.unit]
     offsets = _numbers(words[3 + k : 3 + 4 * k], where, "SONAR offsets").reshape(k, 3)
-    if not np.isfinite(offsets).all():
-        raise LogError(f"{where}: SONAR offsets are not finite")
+    for i, offset in enumerate(offsets):
+        check_pose(offset, where, f"SONAR offset of sensor {i}")
     if (raw < 0).any():
         raise LogError(f"{where}: SONAR reading {int(np.argmax(raw < 0))} is negative")
     if (raw > 2 * options.sonar_max_range).any():
@@ -356,5 +364,5 @@ def _sonar(words: list[str], where: str, options: CarmenOptions) -> RangeReading
     if not (np.isfinite(width) and 0 < width < np.pi):
         raise LogError(f"{where}: SONAR cone angle {cone:g} rad is not a beam width")
     ranges = np.where(raw < options.sonar_max_range, raw, np.nan)
-    stamp = float(_numbers(words[-3:-2], where, "SONAR timestamp")[0])
+    stamp = _stamp(words, where, "SONAR")
     return RangeReadings(stamp, offsets, ranges, options.sonar_max_range, np.full(k, width))

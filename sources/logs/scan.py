@@ -30,7 +30,11 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from evmap.sources.readings import MAX_COORDINATE
+
 __all__ = [
+    "MAX_HEADING",
+    "MIN_BEAM_STEP",
     "UNITS",
     "LaserGeometry",
     "LaserScan",
@@ -43,6 +47,12 @@ __all__ = [
     "compose",
     "relative",
 ]
+
+MAX_HEADING = 1e6
+"""The largest heading (rad) a log's pose may state: an odometry heading may count whole turns, not this many."""
+
+MIN_BEAM_STEP = 1e-5
+"""The closest two beams of a laser may be (rad): 0.0006 deg, finer than any laser's."""
 
 UNITS: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 """Range units a reader may declare, and their size in metres."""
@@ -62,7 +72,8 @@ class LogError(ValueError):
 
 
 def check_pose(pose: ArrayLike, where: str, what: str = "pose") -> NDArray[np.float64]:
-    """(3,) finite x, y, theta, or a :class:`LogError` naming ``where``.
+    """(3,) finite x, y, theta, x and y within :data:`~evmap.sources.readings.MAX_COORDINATE` of the origin and
+    theta within :data:`MAX_HEADING` radians, or a :class:`LogError` naming ``where``.
 
     >>> check_pose([1, 2, 0.5], "a.log:3").tolist()
     [1.0, 2.0, 0.5]
@@ -70,12 +81,21 @@ def check_pose(pose: ArrayLike, where: str, what: str = "pose") -> NDArray[np.fl
     Traceback (most recent call last):
     ...
     sources.logs.scan.LogError: a.log:3: pose (1.0, nan, 0.5) is not finite
+    >>> check_pose([1e300, 0, 0.5], "a.log:4", "laser pose")
+    Traceback (most recent call last):
+    ...
+    sources.logs.scan.LogError: a.log:4: laser pose (1e+300, 0.0, 0.5): x and y must be within 1e+07 m of the origin
     """
     pose = np.asarray(pose, dtype=float)
     if pose.shape != (3,):
         raise LogError(f"{where}: {what} needs x, y, theta, got {pose.size} numbers")
+    shown = ", ".join(str(float(v)) for v in pose)
     if not np.isfinite(pose).all():
-        raise LogError(f"{where}: {what} ({', '.join(str(float(v)) for v in pose)}) is not finite")
+        raise LogError(f"{where}: {what} ({shown}) is not finite")
+    if (np.abs(pose[:2]) > MAX_COORDINATE).any():
+        raise LogError(f"{where}: {what} ({shown}): x and y must be within {MAX_COORDINATE:g} m of the origin")
+    if abs(pose[2]) > MAX_HEADING:
+        raise LogError(f"{where}: {what} ({shown}): a heading of {pose[2]:g} rad is no angle (at most {MAX_HEADING:g})")
     return pose
 
 
@@ -255,6 +275,10 @@ class LaserGeometry:
             raise ValueError(f"a laser needs at least one beam, got {self.count}")
         if not (np.isfinite(self.step) and self.step > 0 and abs(self.step) * (self.count - 1) <= 2 * np.pi + 1e-6):
             raise ValueError(f"{self.count} beams {self.step} rad apart do not fit in one turn")
+        if self.count > 1 and self.step < MIN_BEAM_STEP:
+            raise ValueError(f"beams {self.step:g} rad apart are closer than any laser's (at least {MIN_BEAM_STEP:g})")
+        if not (np.isfinite(self.start) and abs(self.start) <= 2 * np.pi):
+            raise ValueError(f"first beam at {self.start:g} rad is no angle within one turn")
         if not (np.isfinite(self.max_range) and self.max_range > 0):
             raise ValueError(f"maximum range must be a positive number of metres, got {self.max_range}")
         if self.unit not in UNITS:
