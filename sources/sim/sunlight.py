@@ -13,7 +13,15 @@ import shapely
 from numpy.typing import NDArray
 from pydantic import Field, ValidationInfo, field_validator
 
-from evmap.sources.sim.spec import MAX_POLYGON_VERTICES, MAX_SUNLIGHT_LINES_PER_REGION, Count, Number, Point, SpecModel
+from evmap.sources.sim.spec import (
+    MAX_POLYGON_VERTICES,
+    MAX_SUNLIGHT_LINES_PER_REGION,
+    MIN_SEGMENT_LENGTH,
+    Count,
+    Number,
+    Point,
+    SpecModel,
+)
 
 __all__ = ["MIN_FIT_RATE", "Sunlight"]
 
@@ -49,8 +57,8 @@ class Sunlight(SpecModel):
     @classmethod
     def _length_fits(cls, length: tuple[float, float], info: ValidationInfo) -> tuple[float, float]:
         low, high = length
-        if not 0 < low <= high:
-            raise ValueError(f"need 0 < min <= max, got min {low} and max {high}")
+        if not MIN_SEGMENT_LENGTH <= low <= high:
+            raise ValueError(f"need {MIN_SEGMENT_LENGTH:g} m <= min <= max, got min {low} and max {high}")
         if "polygon" in info.data:
             polygon = info.data["polygon"]
             shape = shapely.Polygon(np.subtract(polygon, polygon[0]))
