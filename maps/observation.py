@@ -79,6 +79,8 @@ class Observation:
             if self.sonar is not None and not np.array_equal(pose, self.sonar.pose):
                 raise ValueError(f"robot_pose {pose.tolist()} is not the sonar scan's pose {self.sonar.pose.tolist()}")
             object.__setattr__(self, "robot_pose", pose)
+        if self.rays is not None:
+            object.__setattr__(self, "rays", _checked_rays(self.rays))
         for name, values in self.features.items():
             if name in COMPUTED:
                 raise ValueError(f"feature {name!r} is computed by the pipeline; an observation cannot bring it")
@@ -91,6 +93,23 @@ class Observation:
     def pose(self) -> NDArray[np.float64]:
         """(3,) x, y (m) and heading (rad) of the robot."""
         return self.sonar.pose if self.sonar is not None else self.robot_pose
+
+
+def _checked_rays(rays: ArrayLike) -> NDArray[np.float64]:
+    """The contour sensor's rays as a (K, 2) float array of finite bearings and ranges >= 0 or NaN (no return),
+    or a ValueError naming the first bad ray."""
+    given = np.asarray(rays, dtype=float)
+    if given.size == 0:
+        return given.reshape(0, 2)
+    if given.ndim != 2 or given.shape[1] != 2:
+        raise ValueError(f"rays must be a (K, 2) array of [bearing (rad), range (m)], got shape {given.shape}")
+    bearing, distance = given.T
+    bad = np.flatnonzero(~np.isfinite(bearing) | ~((distance >= 0) & np.isfinite(distance) | np.isnan(distance)))
+    if len(bad):
+        raise ValueError(
+            f"rays[{bad[0]}] = {given[bad[0]].tolist()}: a finite bearing and a range >= 0 m, or NaN for no return"
+        )
+    return given
 
 
 def observe(world: World, pose_index: int, config: Config) -> Observation:
@@ -179,5 +198,5 @@ def observation_from_arrays(
             raise ScanError(f"sonar: angles {angles.shape} and ranges {ranges.shape} must have the same shape")
         scan = SonarScan.from_readings(angles, ranges, config.sensors.sonar, pose=robot)
     features = features_from_arrays(config.extra_sensors, sensors or {}, lsl.p, lsl.q)
-    given = None if rays is None else np.asarray(rays, dtype=float).reshape(-1, 2)
+    given = None if rays is None else np.asarray(rays, dtype=float)
     return Observation(pose_index, scan, lsl, features, rays=given, robot_pose=robot, all_returns=bool(all_returns))

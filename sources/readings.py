@@ -212,7 +212,7 @@ class LslSegments:
     pose : (N,) index of the pose the segment was observed from.
 
     Construction checks the arrays: ends finite and within :data:`MAX_COORDINATE`
-    of the origin, ``truth`` one of :data:`TRUTHS`, one entry per segment in every
+    of the origin, no segment of zero length, ``truth`` one of :data:`TRUTHS`, one entry per segment in every
     array; a :class:`ScanError` names the array and index otherwise.
 
     >>> LslSegments(np.array([[0.0, 0.0]]), np.array([[np.nan, 1.0]]), np.array(["real"]),
@@ -244,6 +244,9 @@ class LslSegments:
                     f"{name}[{bad[0]}] = {ends[bad[0]].tolist()}: beyond {MAX_COORDINATE:g} m of the origin "
                     "(metres expected; move the origin near the data)"
                 )
+        same = np.flatnonzero((np.asarray(self.p, dtype=float) == np.asarray(self.q, dtype=float)).all(axis=1))
+        if len(same):
+            raise ScanError(f"segment {same[0]} has zero length: p == q == {np.asarray(self.p)[same[0]].tolist()}")
         for name in ("truth", "snapshot", "source", "pose"):
             if len(getattr(self, name)) != n:
                 raise ScanError(f"{name} has {len(getattr(self, name))} entries, p has {n}")

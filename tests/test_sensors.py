@@ -235,8 +235,18 @@ def test_observation_from_arrays_refuses_wrong_arrays_by_name():
         observation_from_arrays(cfg, 0, [1, 1, 0], wall, sensors={"ir": ir}, sonar=([0, 1, 2], [1, 1]))
     with pytest.raises(ValueError, match=r"robot_pose must be three finite numbers"):
         observation_from_arrays(cfg, 0, [1, np.nan, 0], wall, sensors={"ir": ir})
-    alone = observation_from_arrays(cfg, 0, [1, 1, 0], wall, sensors={"ir": ir})
+    with pytest.raises(ValueError, match=r"segment 0 has zero length: p == q == \[3.0, 1.0\]"):
+        observation_from_arrays(cfg, 0, [1, 1, 0], [[[3.0, 1.0], [3.0, 1.0]]], sensors={"ir": ir})
+    for rays, problem in [
+        ([[0.0, -1.0]], r"rays\[0\] = \[0.0, -1.0\]: a finite bearing and a range >= 0 m, or NaN"),
+        ([[0.0, 1.0], [np.nan, 1.0]], r"rays\[1\] = \[nan, 1.0\]"),
+        ([[0.0, 1.0, 2.0]], r"rays must be a \(K, 2\) array of \[bearing \(rad\), range \(m\)\], got shape \(1, 3\)"),
+    ]:
+        with pytest.raises(ValueError, match=problem):
+            observation_from_arrays(cfg, 0, [1, 1, 0], wall, sensors={"ir": ir}, rays=rays)
+    alone = observation_from_arrays(cfg, 0, [1, 1, 0], wall, sensors={"ir": ir}, rays=[[0.0, np.nan], [0.1, 2.0]])
     assert alone.sonar is None and alone.features["ir_return"].tolist() == ["echo"]
+    assert alone.rays is not None and alone.rays.shape == (2, 2)
 
 
 def test_the_python_examples_of_the_sensor_readme_run_as_written():
