@@ -18,6 +18,7 @@ temporary file it was written to (0600); a file written over keeps its own.
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
 import tempfile
@@ -56,6 +57,8 @@ def write_atomic(path: str | Path, data: bytes, *, mode: int | None = None, sync
     or :data:`FILE_MODE` for a new one.
     """
     path = Path(path)
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "a directory: name the file to write", str(path))
     if mode is None:
         try:
             mode = stat.S_IMODE(path.stat().st_mode)

@@ -42,7 +42,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from evidential import Frame, combine_batch
 from evmap.maps.atomic_file import write_atomic
 from evmap.maps.free_space import free_space
-from evmap.maps.planner import state
+from evmap.maps.planner import is_number, state
 from evmap.maps.sensed import sensed
 
 if TYPE_CHECKING:
@@ -106,7 +106,7 @@ def grid_geometry(
     >>> grid_geometry((0.0, 0.0, 1.0, 0.5), 0.1, OccupancyParams(padding=0.1))
     ((-0.1, -0.1), (7, 12))
     """
-    if not (np.isfinite(resolution) and resolution > 0):
+    if not (is_number(resolution) and np.isfinite(resolution) and resolution > 0):
         raise ValueError(f"resolution must be a positive number of metres, got {resolution!r}")
     xmin, ymin, xmax, ymax = bounds
     origin = (xmin - params.padding, ymin - params.padding)

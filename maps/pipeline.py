@@ -181,6 +181,11 @@ def touched_segments(
 
 def check_observation(bm: BeliefMap, obs: Observation, config: Config) -> None:
     """Refuse, before the map changes, an observation the map cannot fold with this config."""
+    if not isinstance(obs, Observation):
+        raise TypeError(
+            f"a map is updated with an Observation (evmap.maps.observation: observation_from_arrays, observation_from_log"
+            f" or observe), got {type(obs).__name__}"
+        )
     if config.frame != bm.frame or config.rule != bm.rule:
         raise ValueError(
             f"{config.name}: the config's frame and rule ({list(config.frame.elements)}, {config.rule}) "

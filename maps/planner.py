@@ -303,7 +303,7 @@ def is_segment_clear(
     if unknown not in UNKNOWN_POLICIES:
         raise ValueError(f"unknown must be one of {list(UNKNOWN_POLICIES)}, got {unknown!r}")
     a, b = np.array(point(a, "a")), np.array(point(b, "b"))
-    if not (isinstance(clearance, Real) and 0 <= clearance < math.inf):
+    if not (is_number(clearance) and 0 <= clearance < math.inf):
         raise ValueError(f"clearance must be a finite number >= 0 (m), got {clearance!r}")
     tree = obstacle_tree(bm, belief_level(min_belief))
     path = _geometries(a[None], b[None])[0]
@@ -337,9 +337,18 @@ def belief_plausibility(masses: list[MassFunction], a: int) -> tuple[NDArray[np.
     )
 
 
+def is_number(value: object) -> bool:
+    """Whether ``value`` is a real number (numpy's too), not a bool nor a string (as a scenario file's rules have it).
+
+    >>> is_number(0.5), is_number(np.int64(2)), is_number(True), is_number("0.5")
+    (True, True, False, False)
+    """
+    return isinstance(value, Real) and not isinstance(value, bool | np.bool_)
+
+
 def belief_level(min_belief: float) -> float:
     """``min_belief`` checked: a number in [0, 1]."""
-    if not (isinstance(min_belief, Real) and 0 <= min_belief <= 1):
+    if not (is_number(min_belief) and 0 <= min_belief <= 1):
         raise ValueError(f"min_belief must be a number in [0, 1], got {min_belief!r}")
     return float(min_belief)
 
@@ -355,9 +364,11 @@ def point(xy: Iterable[float], what: str) -> tuple[float, float]:
     """
     try:
         x, y = xy
-        p = (float(x), float(y))
     except (TypeError, ValueError):
         raise ValueError(f"{what}: a point must be (x, y), got {xy!r:.80}") from None
+    if not (is_number(x) and is_number(y)):
+        raise ValueError(f"{what}: a point must be two numbers (x, y), got {xy!r:.80}")
+    p = (float(x), float(y))
     if not (math.isfinite(p[0]) and math.isfinite(p[1])):
         raise ValueError(f"{what}: a point must have finite coordinates, got {p}")
     if not (abs(p[0]) <= MAX_COORDINATE and abs(p[1]) <= MAX_COORDINATE):

@@ -265,8 +265,29 @@ def test_nearest_obstacle_ties_are_decided_by_id():
         # far beyond any map (issue 16): refused, not answered wrongly by overflow nor searched for
         (lambda bm: bm.nearest_obstacle((1e300, 0)), r"xy: .*within 1e\+07 m"),
         (lambda bm: bm.is_segment_clear((1e300, 1), (-1e300, 1), unknown="free"), r"a: .*within 1e\+07 m"),
+        # a bool or a string is no number (as in the scenario files)
+        (lambda bm: bm.lines(min_belief=True), "min_belief"),
+        (lambda bm: bm.nearest_obstacle((True, False)), r"xy: a point must be two numbers \(x, y\)"),
+        (lambda bm: bm.nearest_obstacle(("1", 0)), r"xy: a point must be two numbers"),
+        (lambda bm: bm.is_segment_clear((0, 0), (1, 1), clearance=False), "clearance"),
+        (lambda bm: bm.occupancy_grid(resolution="0.05"), "resolution must be a positive number of metres"),
+        (lambda bm: bm.occupancy_grid(resolution=None), "resolution must be a positive number of metres"),
     ],
 )
 def test_bad_query_arguments_are_refused(bm, call, match):
     with pytest.raises(ValueError, match=match):
         call(bm)
+
+
+def test_a_map_is_updated_with_an_observation_and_saved_to_a_file(bm, tmp_path):
+    from evmap.maps import new_map
+    from evmap.sources.config import load_config
+
+    for wrong in ("hello", None):
+        with pytest.raises(TypeError, match="a map is updated with an Observation"):
+            new_map(load_config()).update(wrong)
+    for place in (tmp_path, tmp_path / "sub"):
+        place.mkdir(exist_ok=True)
+        with pytest.raises(IsADirectoryError, match=f"a directory: name the file to write: '{place}'"):
+            bm.save(place)
+    assert [p.name for p in tmp_path.iterdir()] == ["sub"]  # nothing half-written
