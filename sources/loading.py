@@ -5,7 +5,7 @@ Every configuration and scenario file enters the product through :func:`read_doc
 :data:`MAX_FILE_BYTES` bytes (at most that many plus one are read, so ``/dev/zero`` or a
 FIFO costs nothing); the YAML is parsed with a safe loader (libyaml's ``CSafeLoader``
 where installed, else PyYAML's ``SafeLoader``: no object-constructing tags, duplicate
-keys refused, standard merge keys ``<<`` supported), and the composed document is
+keys refused, standard merge keys ``<<`` supported, ``1e8`` a number as YAML 1.2 has it), and the composed document is
 measured before anything is constructed: at most :data:`MAX_DEPTH` levels of nesting
 and :data:`MAX_NODES` nodes once aliases are expanded (an alias bomb is refused in
 milliseconds), no alias inside the node it names. A :class:`Document` then validates
@@ -16,6 +16,8 @@ names the file, the key path (``world.walls[3].points``), what is wrong and the 
 >>> doc = parse_document("a: &x [1, 2]\\nb: {<<: {c: 1}, d: *x}", "t.yaml")
 >>> doc.data
 {'a': [1, 2], 'b': {'c': 1, 'd': [1, 2]}}
+>>> parse_document("[1e8, 1e-9, 1.5e+3, 12, e5, 1e]", "n.yaml").data
+[100000000.0, 1e-09, 1500.0, 12, 'e5', '1e']
 >>> doc.line(("b", "d"))
 2
 >>> try:
@@ -28,6 +30,7 @@ deep.yaml: line 1, column 11: nesting depth of at least 33, more than the limit 
 from __future__ import annotations
 
 import os
+import re
 import reprlib
 import stat
 from dataclasses import dataclass
@@ -109,6 +112,11 @@ class _StrictLoader(_BaseLoader):  # type: ignore[misc, valid-type]
 
 
 _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _StrictLoader.construct_mapping)
+_StrictLoader.add_implicit_resolver(  # YAML 1.2's exponents: 1e8 and 1e-9 are numbers, as 1.0e+8 is in YAML 1.1
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+.0123456789"),
+)
 
 
 def key_path(loc: tuple[str | int, ...]) -> str:
