@@ -69,6 +69,17 @@ def test_force_refuses_a_directory_evmap_did_not_make_naming_what_is_in_the_way(
     assert (out / "thesis.tex").read_text() == "mine" and (tmp_path / "mine" / "notes.txt").read_text() == "mine"
 
 
+def test_a_marker_listing_a_file_that_is_no_artefact_does_not_make_it_evmaps(tmp_path):
+    out = tmp_path / "out"
+    write_run(out)
+    (out / "mine.txt").write_text("mine")
+    marker = json.loads((out / MARKER).read_text())
+    (out / MARKER).write_text(json.dumps({**marker, "files": [*marker["files"], "mine.txt"]}))
+    with pytest.raises(OutputError, match="mine.txt"):
+        write_run(out, force=True)
+    assert (out / "mine.txt").read_text() == "mine"
+
+
 def test_a_file_put_into_out_during_the_run_is_not_deleted(tmp_path):
     out = tmp_path / "out"
     write_run(out)

@@ -124,7 +124,8 @@ def _inside(filename: object, directory: Path) -> bool:
 def owned_entries(directory: Path, layout: Layout) -> tuple[list[str], list[str]]:
     """The entries of ``directory`` evmap wrote (relative paths, files first) and the others.
 
-    Evmap wrote the files its marker lists, or, without a marker, the files of
+    Evmap wrote the files its marker lists whose names are those of artefacts (of any command's layout: a
+    marker edited to list a file of the user's does not make it evmap's), or, without a marker, the files of
     ``layout`` when all its required files are there.
 
     >>> import tempfile
@@ -143,7 +144,7 @@ def owned_entries(directory: Path, layout: Layout) -> tuple[list[str], list[str]
             listed = set()
         mine, others = [], []
         for rel in _walk(directory):
-            (mine if rel in listed else others).append(rel)
+            (mine if rel in listed and _artefact(rel) else others).append(rel)
         return [*mine, MARKER], others
     if not set(layout.required) <= set(top):
         return [], top
@@ -165,6 +166,18 @@ def owned_entries(directory: Path, layout: Layout) -> tuple[list[str], list[str]
         else:
             others.append(name)
     return mine, others
+
+
+def _artefact(rel: str) -> bool:
+    """Whether the relative path ``rel`` (``NAME``, ``SUB/NAME`` or ``SUB/``) is named as an artefact of a run,
+    a log or a comparison is (:data:`RUN_LAYOUT`, :data:`COMPARE_LAYOUT`)."""
+    sub, _, name = rel.rpartition("/")
+    for layout in (RUN_LAYOUT, COMPARE_LAYOUT):
+        if not sub and (name in layout.required or any(fnmatch.fnmatch(name, p) for p in layout.patterns)):
+            return True
+        if sub in layout.subdirs and (not name or fnmatch.fnmatch(name, layout.subdirs[sub])):
+            return True
+    return False
 
 
 def write_text_atomic(path: Path, text: str) -> None:
