@@ -139,6 +139,12 @@ def test_a_beam_spacing_no_laser_has_is_refused(tmp_path: Path) -> None:
         list(read_carmen(path))
 
 
+def test_a_laser_offset_that_puts_the_robot_beyond_any_map_is_refused(tmp_path: Path) -> None:
+    path = write(tmp_path, "PARAM robot_frontlaser_offset 1e300 h 0", FLASER)
+    with pytest.raises(LogError, match=r"x.log:2: robot pose \(robot_frontlaser_offset behind\) \(-1e\+300"):
+        list(read_carmen(path))
+
+
 def test_bad_param_is_refused(tmp_path: Path) -> None:
     path = write(tmp_path, "PARAM robot_front_laser_max far", FLASER)
     with pytest.raises(LogError, match="x.log:2: PARAM robot_front_laser_max 'far' is not a positive number"):

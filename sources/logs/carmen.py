@@ -318,7 +318,7 @@ def _placed(scan: LaserScan, state: _State, where: str, index: int) -> LogRecord
     """A RAWLASER1 scan at the latest odometry pose, the laser ``robot_frontlaser_offset`` ahead of the robot."""
     robot = state.odometry
     offset = state.param("robot_frontlaser_offset", where, positive=False) or 0.0
-    laser = compose(robot, [offset, 0.0, 0.0])
+    laser = check_pose(compose(robot, [offset, 0.0, 0.0]), where, "laser pose (robot_frontlaser_offset ahead)")
     return LogRecord(index, LaserScan(scan.stamp, laser, scan.angles, scan.ranges, scan.max_range), robot, state.sonar)
 
 
@@ -334,7 +334,7 @@ def _flaser(words: list[str], where: str, state: _State, index: int) -> LogRecor
     ranges = geometry.ranges(words[2 : 2 + n], where)
     laser = check_pose(_numbers(words[2 + n : 5 + n], where, "FLASER pose"), where, "laser pose")
     offset = state.param("robot_frontlaser_offset", where, positive=False) or 0.0
-    robot = compose(laser, [-offset, 0.0, 0.0])
+    robot = check_pose(compose(laser, [-offset, 0.0, 0.0]), where, "robot pose (robot_frontlaser_offset behind)")
     stamp = _stamp(words, where, "FLASER")
     return LogRecord(index, LaserScan(stamp, laser, geometry.angles, ranges, geometry.max_range), robot, state.sonar)
 
