@@ -3,7 +3,8 @@
 One writer for every file evmap writes whole: ``map.json`` (:mod:`evmap.maps.map_file`), the
 ROS map pair (:mod:`evmap.maps.occupancy`) and the run artefacts (:mod:`evmap.maps.app.staging`).
 A new file gets ordinary permissions, the umask's (:data:`FILE_MODE`), not those of the
-temporary file it was written to (0600); a file written over keeps its own.
+temporary file it was written to (0600); a file written over keeps its own, and a path that
+is a symbolic link writes the file it points to (the link stays).
 
 >>> import pathlib, tempfile
 >>> with tempfile.TemporaryDirectory() as tmp:
@@ -56,7 +57,7 @@ def write_atomic(path: str | Path, data: bytes, *, mode: int | None = None, sync
     the new one). ``mode``: the file's permissions; by default those of the file written over,
     or :data:`FILE_MODE` for a new one.
     """
-    path = Path(path)
+    path = Path(os.path.realpath(path))  # through a symbolic link: the link stays, what it points to is written
     if path.is_dir():
         raise IsADirectoryError(errno.EISDIR, "a directory: name the file to write", str(path))
     if mode is None:

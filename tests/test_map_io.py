@@ -85,6 +85,10 @@ def test_saved_files_get_ordinary_permissions_and_keep_their_own(bm, tmp_path):
     bm.save(path)
     assert stat.S_IMODE(path.stat().st_mode) == 0o600
     assert sorted(p.name for p in tmp_path.iterdir()) == ["map.json", "room.pgm", "room.yaml"]  # no temporary left
+    (tmp_path / "link.json").symlink_to("map.json")
+    path.write_text("old")
+    bm.save(tmp_path / "link.json")  # the link stays; the file it points to is the map
+    assert (tmp_path / "link.json").is_symlink() and BeliefMap.load(path).to_data() == bm.to_data()
 
 
 def test_loaded_map_gives_the_same_occupancy_grid(bm, tmp_path):
