@@ -95,6 +95,7 @@ def test_millimetres_declared(tmp_path: Path) -> None:
     [
         ("FLASER 3 1.0 2.0 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0", "x.log:2: FLASER with 3 beams needs 14 fields"),
         ("FLASER three 1.0 2.0 3.0 0 0 0 0 0 0 1 h 1", "x.log:2: FLASER beam count 'three' is not an integer"),
+        ("FLASER é 1.0 2.0 3.0 0 0 0 0 0 0 1 h 1", "x.log:2: FLASER beam count 'é' is not an integer"),
         ("FLASER 3 1.0 abc 3.0 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0", "x.log:2: a range reading is not a number"),
         ("FLASER 3 1.0 -2.0 3.0 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0", "x.log:2: reading 1 is negative"),
         ("FLASER 3 1.0 2.0 3.0 nan 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0", "x.log:2: laser pose (nan, 0.0, 0.0)"),

@@ -133,7 +133,8 @@ def text_lines(path: str | Path) -> Iterator[tuple[int, str]]:
         with os.fdopen(fd, "rb") as f:
             gzipped = f.read(2) == b"\x1f\x8b"
             f.seek(0)
-            with io.TextIOWrapper(gzip.GzipFile(fileobj=f) if gzipped else f, encoding="latin-1") as text:
+            raw = gzip.GzipFile(fileobj=f) if gzipped else f
+            with io.TextIOWrapper(raw, encoding="utf-8", errors="replace") as text:  # a bad byte shows as U+FFFD
                 for number, line in enumerate(text, start=1):
                     yield number, line
     except (EOFError, zlib.error, gzip.BadGzipFile) as exc:
