@@ -12,7 +12,7 @@ Examples
 
 from evidential.approximation import Estimate, Summary, monte_carlo_combine, summarize
 from evidential.combination import combine, combine_batch, conflict
-from evidential.conditioning import condition, decondition
+from evidential.conditioning import condition, decondition, generalized_bayes
 from evidential.construction import (
     consonant_from_possibility,
     consonant_from_samples,
@@ -84,6 +84,7 @@ __all__ = [
     "from_conjunctive_weights",
     "from_disjunctive_weights",
     "from_focal_sets",
+    "generalized_bayes",
     "hurwicz",
     "imprecise_dirichlet",
     "interval_dominance",

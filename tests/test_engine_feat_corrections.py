@@ -1,14 +1,16 @@
 """Canonical decompositions, decombination, contextual discounting and reinforcement,
 negation, conditioning and deconditioning: known answers and properties."""
 
+import math
+
 import numpy as np
 import pytest
 from engine_fixtures import FRAMES, assert_same, masses
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evidential import MassError, MassFunction, TotalConflictError, combine
-from evidential.conditioning import condition, decondition
+from evidential import Frame, MassError, MassFunction, TotalConflictError, combine
+from evidential.conditioning import condition, decondition, generalized_bayes
 from evidential.decomposition import (
     conjunctive_weights,
     decombine,
@@ -180,3 +182,57 @@ def test_deconditioning_inverts_conditioning(m, a):
     b = decondition(conditioned, a)  # least committed: pl' >= pl of m on every set
     for s in range(1, 8):
         assert b.plausibility(s) >= m.plausibility(s) - 1e-12 or s & a == 0
+
+
+# --- the generalized Bayesian theorem ---------------------------------------------------------
+
+
+def test_generalized_bayes_known_answers_and_refusals():
+    # Smets (1993), IJAR 9: m(A | x) = prod over A of pl(x | θ) times prod outside A of 1 - pl(x | θ).
+    close(
+        generalized_bayes(ABC, {"w0": 0.8, "w1": 0.5}, normalise=False), {"": 0.1, "w0": 0.4, "w1": 0.1, "w0|w1": 0.4}
+    )
+    close(generalized_bayes(ABC, {"w0": 0.8, "w1": 0.5}), {"w0": 0.4 / 0.9, "w1": 0.1 / 0.9, "w0|w1": 0.4 / 0.9})
+    close(generalized_bayes(ABC, {"w0": 1.0, "w1": 0.25}), {"w0": 0.75, "w0|w1": 0.25})  # pl 1: in every focal set
+    with pytest.raises(TotalConflictError, match="impossible under every element"):
+        generalized_bayes(ABC, {"w0": 0.0})
+    assert generalized_bayes(ABC, {}, normalise=False).to_dict() == {"": 1.0}
+    for bad, match in [
+        ({"w9": 0.5}, "not in"),
+        ({"w0": 1.5}, r"pl\(x \| w0\) must be a number in \[0, 1\], got 1.5"),
+        ({"w0": float("nan")}, "must be a number in"),
+        ({"w0": True}, "must be a number in"),
+        ({"w0": "0.5"}, "must be a number in"),
+    ]:
+        with pytest.raises(MassError, match=match):
+            generalized_bayes(ABC, bad)
+    wide = Frame([f"e{i}" for i in range(100)])  # beyond one machine word: Python-int focal sets
+    m = generalized_bayes(wide, {"e0": 0.5, "e70": 0.5, "e99": 1.0})
+    assert m.to_dict() == pytest.approx({"e99": 0.25, "e0|e99": 0.25, "e70|e99": 0.25, "e0|e70|e99": 0.25})
+    with pytest.raises(MassError, match=r"2\*\*21 focal sets"):
+        generalized_bayes(wide, {f"e{i}": 0.5 for i in range(21)})
+
+
+@settings(max_examples=40)
+@given(
+    pl=st.lists(st.floats(0, 1), min_size=4, max_size=4),
+    prior=st.lists(st.floats(0.01, 1), min_size=4, max_size=4),
+)
+def test_generalized_bayes_closed_form_and_bayes_theorem(pl, prior):
+    frame = FRAMES[4]
+    named = dict(zip(frame.elements, pl, strict=True))
+    if not any(pl):
+        return
+    m = generalized_bayes(frame, named)
+
+    def some(a):  # 1 - prod over A of (1 - pl(x | θ)), exact for tiny pl
+        inside = [p for i, p in enumerate(pl) if a >> i & 1]
+        return 1.0 if 1.0 in inside else -math.expm1(math.fsum(math.log1p(-p) for p in inside))
+
+    for a in range(1, 16):  # pl(A | x), normalised
+        assert m.plausibility(a) == pytest.approx(some(a) / some(15), abs=1e-9)
+    bayesian = MassFunction(frame, {1 << i: w / sum(prior) for i, w in enumerate(prior)})
+    posterior = combine(m, bayesian, rule="dempster")  # Bayes' theorem: prior(θ) pl(x | θ), normalised
+    weights = np.array(prior) * np.array(pl)
+    for i, w in enumerate(weights / weights.sum()):
+        assert posterior[1 << i] == pytest.approx(w, abs=1e-9)
