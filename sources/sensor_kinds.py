@@ -24,6 +24,8 @@ segment, categories among those declared, numbers finite.
 from __future__ import annotations
 
 import re
+import zipfile
+import zlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -93,6 +95,7 @@ class SensorKind:
     example : a valid YAML section of the kind, for the conformance suite and ``evmap sources``.
     summary : one line saying what the kind senses.
     origin : where it comes from: ``builtin``, or a plugin's entry point.
+    unbounded : the arrays that may hold ``inf`` (a range sensor's ranges: no echo); the others must be finite.
     """
 
     name: str
@@ -104,6 +107,7 @@ class SensorKind:
     example: Mapping[str, Any]
     summary: str
     origin: str = "builtin"
+    unbounded: tuple[str, ...] = ()
 
     def declares(self, sensor: str, spec: SensorSpec) -> dict[str, tuple[str, ...] | None]:
         """The features a sensor of this kind named ``sensor`` gives: ``{sensor_suffix: categories}``."""
@@ -283,6 +287,8 @@ def check_readings(kind: SensorKind, readings: Mapping[str, ArrayLike], sensor: 
                 raise ValueError(f"sensor {sensor!r}: readings {name!r} must have shape {shape}, got {a.shape}")
         if np.isnan(a).any():
             raise ValueError(f"sensor {sensor!r}: readings {name!r} hold NaN")
+        if name not in kind.unbounded and np.isinf(a).any():
+            raise ValueError(f"sensor {sensor!r}: readings {name!r} must be finite, got an infinite value")
         out[name] = a
     return out
 
@@ -382,10 +388,20 @@ def read_readings(path: str | Path) -> dict[str, dict[str, NDArray[Any]]]:
     {'radar': ['points', 'pose']}
     """
     out: dict[str, dict[str, NDArray[Any]]] = {}
-    with np.load(path, allow_pickle=False) as log:
-        for key in log.files:
-            sensor, slash, array = key.partition("/")
-            if not slash:
-                raise ValueError(f"{path}: array {key!r} is not named SENSOR/ARRAY")
-            out.setdefault(sensor, {})[array] = log[key]
+    try:
+        loaded = np.load(path, allow_pickle=False)
+        if not isinstance(loaded, np.lib.npyio.NpzFile):
+            raise ValueError("a single .npy array, not an .npz archive of SENSOR/ARRAY arrays")  # noqa: TRY004 - bad input
+        with loaded as log:
+            for key in log.files:
+                sensor, slash, array = key.partition("/")
+                if not slash:
+                    raise ValueError(f"array {key!r} is not named SENSOR/ARRAY")
+                out.setdefault(sensor, {})[array] = log[key]
+    except (zipfile.BadZipFile, EOFError, zlib.error) as exc:
+        raise ValueError(f"not a readable .npz archive ({exc or type(exc).__name__})") from None
+    except ValueError as exc:
+        if "pickled" in str(exc):  # numpy's guess for bytes it cannot read: no .npy or .npz at all
+            raise ValueError("not a readable .npz archive (neither .npz nor .npy data)") from None
+        raise
     return out

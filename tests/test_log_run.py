@@ -208,3 +208,56 @@ def test_a_yaml_sensor_reads_its_readings_from_a_log_s_directory(tmp_path, capsy
     assert main(["log", str(INTEL), "--limit", "3", "--readings", str(readings), "--out", str(out)]) == 2
     assert "declares no sensor to read them" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_damaged_or_wrong_readings_files_are_refused_naming_them(tmp_path, capsys):
+    config = str(configs.path("examples/infrared.yaml"))
+    readings = tmp_path / "readings"
+    readings.mkdir()
+    good = readings / "good.npz"
+    np.savez(good, **{"ir/pose": np.zeros(3), "ir/angles": np.zeros(36), "ir/ranges": np.full(36, np.inf)})
+    data = good.read_bytes()
+    damaged = bytearray(data)
+    damaged[len(data) // 2] ^= 0xFF
+    cases = {
+        "cut": lambda path: path.write_bytes(data[: len(data) // 2]),
+        "damaged": lambda path: path.write_bytes(bytes(damaged)),
+        "empty": lambda path: path.write_bytes(b""),
+        "noise": lambda path: path.write_bytes(np.random.default_rng(0).bytes(500)),
+        "npy": lambda path: path.write_bytes(open_npy_bytes()),
+        "a directory": lambda path: path.mkdir(),
+        "an infinite pose": lambda path: np.savez(
+            path.with_suffix(""), **{"ir/pose": [np.inf, 0, 0], "ir/angles": np.zeros(36), "ir/ranges": np.ones(36)}
+        ),
+    }
+    expected = {
+        "cut": "not a readable .npz archive",
+        "damaged": "not a readable .npz archive",
+        "empty": "not a readable .npz archive",
+        "noise": "not a readable .npz archive",
+        "npy": "a single .npy array, not an .npz archive",
+        "a directory": "not a regular file",
+        "an infinite pose": "sensor 'ir': readings 'pose' must be finite, got an infinite value",
+    }
+    out = tmp_path / "out"
+    for case, write in cases.items():
+        scan = readings / "scan-0.npz"
+        if scan.is_dir():
+            scan.rmdir()
+        else:
+            scan.unlink(missing_ok=True)
+        write(scan)
+        argv = ["log", str(INTEL), "--config", config, "--limit", "1", "--readings", str(readings), "--out", str(out)]
+        assert main(argv) == 2, case
+        err = capsys.readouterr().err
+        assert f"evmap: error: {scan}: {expected[case]}" in err and "Traceback" not in err, (case, err)
+        assert not out.exists()
+
+
+def open_npy_bytes() -> bytes:
+    """A single array as ``np.save`` writes it (an .npy file)."""
+    import io
+
+    buffer = io.BytesIO()
+    np.save(buffer, np.zeros(3))
+    return buffer.getvalue()

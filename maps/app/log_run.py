@@ -134,6 +134,8 @@ def _readings_file(directory: Path, index: int) -> Path:
 def _scan_readings(directory: Path, index: int) -> dict[str, dict[str, np.ndarray]]:
     """The declared sensors' readings at scan ``index`` of the log (:func:`_readings_file`)."""
     path = _readings_file(directory, index)
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{path}: not a regular file (the readings of scan {index} of the log are an .npz file)")
     if not path.is_file():
         raise ValueError(f"{path}: no readings for scan {index} of the log")
     try:

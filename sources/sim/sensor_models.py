@@ -242,6 +242,7 @@ BUILTIN_SENSOR_KINDS: tuple[SensorKind, ...] = (
         simulate=simulate_range,
         example={"kind": "range", "beams": 8, "cone_deg": 10, "max_range": 2.0},
         summary="a range sensor (one beam, a ring, rotating): free space and echoes",
+        unbounded=("ranges",),
     ),
     SensorKind(
         name="detector",
