@@ -26,7 +26,7 @@ def from_focal_sets(frame: Frame, masks: ArrayLike, masses: ArrayLike, *, open_w
     >>> from_focal_sets(Frame(["a", "b"]), [1, 3, 1], [0.25, 0.5, 0.25]).to_dict()
     {'a': 0.5, 'a|b': 0.5}
     """
-    keys = np.asarray(masks, dtype=np.int64).ravel()
+    keys = np.asarray(masks, dtype=frame.dtype).ravel()  # Python ints beyond 63 elements
     values = np.asarray(masses, dtype=np.float64).ravel()
     if keys.shape != values.shape:
         raise MassError(f"masks and masses must have one entry each per focal set, got {keys.size} and {values.size}")

@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 from evidential.errors import UndefinedTransformError
 from evidential.stack import Stack
 
-__all__ = ["element_masses", "membership"]
+__all__ = ["element_masses", "masks_of", "membership"]
 
 
 def membership(masks: NDArray, n: int) -> NDArray[np.float64]:
@@ -27,6 +27,24 @@ def membership(masks: NDArray, n: int) -> NDArray[np.float64]:
         return (masks[:, None] >> np.arange(n) & 1).astype(np.float64)
     octets = np.ascontiguousarray(masks, dtype="<i8").view(np.uint8).reshape(-1, 8)
     return np.unpackbits(octets, axis=1, count=n, bitorder="little").astype(np.float64)
+
+
+def masks_of(member: NDArray[np.bool_], dtype: np.dtype) -> NDArray:
+    """The focal sets (K,) of a (K, n) membership matrix (the inverse of :func:`membership`), as int64 masks or,
+    for ``dtype`` object (a wide frame), Python ints.
+
+    Examples
+    --------
+    >>> masks_of(np.array([[True, False, False], [False, True, True]]), np.dtype(np.int64)).tolist()
+    [1, 6]
+    >>> masks_of(np.eye(70, dtype=bool)[[0, 69]], np.dtype(object)).tolist() == [1, 1 << 69]
+    True
+    """
+    n = member.shape[1]
+    if dtype == object:
+        bits = np.array([1 << i for i in range(n)], dtype=object)
+        return np.where(member, bits, 0).sum(axis=1).astype(object)
+    return (member.astype(np.int64) << np.arange(n, dtype=np.int64)).sum(axis=1)
 
 
 def element_masses(s: Stack, n: int, split: bool) -> NDArray[np.float64]:

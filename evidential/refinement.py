@@ -12,16 +12,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evidential.construction import from_focal_sets
+from evidential.elements import masks_of, membership
 from evidential.errors import FrameError
 from evidential.frame import Focal, Frame
 from evidential.mass import MassFunction
 
 
-def _refining(coarse: Frame, fine: Frame, refining: Mapping[str, Focal]) -> NDArray[np.int64]:
+def _refining(coarse: Frame, fine: Frame, refining: Mapping[str, Focal]) -> NDArray:
     """ρ({θ}) as fine bitmasks, in coarse frame order, checked to be a refining."""
     if set(refining) != set(coarse.elements):
         raise FrameError(f"refining must map every element of {coarse!r} and nothing else, got {sorted(refining)}")
-    blocks = np.array([fine.mask(refining[name]) for name in coarse.elements], dtype=np.int64)
+    blocks = np.array([fine.mask(refining[name]) for name in coarse.elements], dtype=fine.dtype)
     seen = 0
     for name, block in zip(coarse.elements, blocks.tolist()):
         if not block or block & seen:
@@ -45,10 +46,8 @@ def refine(m: MassFunction, fine: Frame, refining: Mapping[str, Focal]) -> MassF
     {'sedan|truck': 0.8, 'sedan|truck|adult|child': 0.2}
     """
     blocks = _refining(m.frame, fine, refining)
-    member = (m.masks[:, None] >> np.arange(blocks.size)) & 1
-    return from_focal_sets(
-        fine, np.bitwise_or.reduce(np.where(member == 1, blocks, 0), axis=1), m.masses, open_world=True
-    )
+    member = membership(m.masks, blocks.size) == 1
+    return from_focal_sets(fine, np.bitwise_or.reduce(np.where(member, blocks, 0), axis=1), m.masses, open_world=True)
 
 
 def coarsen(m: MassFunction, coarse: Frame, refining: Mapping[str, Focal], *, outer: bool = True) -> MassFunction:
@@ -77,6 +76,4 @@ def coarsen(m: MassFunction, coarse: Frame, refining: Mapping[str, Focal], *, ou
     """
     blocks = _refining(coarse, m.frame, refining)
     meets = (m.masks[:, None] & blocks[None, :]) != 0 if outer else (m.masks[:, None] & blocks[None, :]) == blocks
-    return from_focal_sets(
-        coarse, (meets.astype(np.int64) << np.arange(blocks.size)).sum(axis=1), m.masses, open_world=True
-    )
+    return from_focal_sets(coarse, masks_of(meets, coarse.dtype), m.masses, open_world=True)

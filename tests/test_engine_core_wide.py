@@ -67,3 +67,26 @@ def test_wide_queries():
 def test_word_frames_keep_int64():
     assert MassFunction(Frame([f"e{i}" for i in range(63)]), {"e62": 1.0}).masks.dtype == np.int64
     assert MassFunction(Frame([f"e{i}" for i in range(64)]), {"e63": 1.0}).masks.tolist() == [1 << 63]
+
+
+def test_wide_construction_summarisation_refinement_and_coarsening():
+    from evidential import coarsen, from_focal_sets, refine, summarize
+
+    word_edge = Frame([f"e{i}" for i in range(64)])  # the first frame beyond one machine word
+    m = MassFunction(word_edge, {"e63": 0.5, "e0|e63": 0.3, word_edge.full: 0.2})
+    summary = summarize(m, 2)
+    assert summary.mass.to_dict() == {"e63": 0.5, word_edge.label(word_edge.full): 0.5} and summary.error == 0.5
+    assert from_focal_sets(word_edge, [1 << 63, 1 << 63, word_edge.full], [0.25, 0.25, 0.5]).to_dict() == {
+        "e63": 0.5,
+        word_edge.label(word_edge.full): 0.5,
+    }
+    coarse = Frame([f"c{i}" for i in range(70)])  # wide on both sides: 70 coarse elements, 140 fine
+    fine = Frame([f"x{i}" for i in range(140)])
+    rho = {f"c{i}": f"x{2 * i}|x{2 * i + 1}" for i in range(70)}
+    m = MassFunction(coarse, {"c0|c69": 0.5, "c69": 0.2, coarse.full: 0.3})
+    refined = refine(m, fine, rho)
+    assert refined.to_dict() == {"x138|x139": 0.2, "x0|x1|x138|x139": 0.5, fine.label(fine.full): 0.3}
+    assert coarsen(refined, coarse, rho) == m and coarsen(refined, coarse, rho, outer=False) == m
+    inner = coarsen(MassFunction(fine, {"x0|x139": 1.0}), coarse, rho, outer=False)  # no block inside: ∅
+    assert inner.to_dict() == {"": 1.0}
+    assert coarsen(MassFunction(fine, {"x0|x139": 1.0}), coarse, rho).to_dict() == {"c0|c69": 1.0}
