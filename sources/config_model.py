@@ -258,16 +258,27 @@ class Config:
 
 
 def check_rule(rule: str) -> None:
-    """Refuse (``ValueError``) a rule name that is not in the engine's registry (plugins' rules loaded on first miss).
+    """Refuse (``ValueError``) a rule name that is not in the engine's registry (plugins' rules loaded on first
+    miss), or whose sources must all put mass on the empty set (``empty_set="required"``, as the bold rule's):
+    evmap's evidence sources put none, so such a rule could fuse nothing.
 
     >>> check_rule("dempster")
     >>> check_rule("dempstr")
     Traceback (most recent call last):
     ...
     ValueError: unknown rule 'dempstr'; rules are: ...
+    >>> check_rule("bold")
+    Traceback (most recent call last):
+    ...
+    ValueError: rule 'bold' combines only mass functions with m(∅) > 0 (empty_set 'required'); evmap's sources put no mass on ∅: choose another rule
     """
     if isinstance(rule, str) and rule not in RULES:
         load_plugins()
     if not isinstance(rule, str) or rule not in RULES:
         problem = refusal("evmap.rules", rule) if isinstance(rule, str) else None
         raise ValueError(problem or f"unknown rule {rule!r}; rules are: {', '.join(sorted(RULES))}")
+    if RULES[rule].empty_set == "required":
+        raise ValueError(
+            f"rule {rule!r} combines only mass functions with m(∅) > 0 (empty_set 'required'); "
+            "evmap's sources put no mass on ∅: choose another rule"
+        )

@@ -120,10 +120,14 @@ def test_config_is_immutable_and_with_rule_makes_a_copy():
         cfg.noise.threshold = 0.9  # type: ignore[misc]
 
 
-def test_with_rule_accepts_every_registered_rule_and_refuses_others():
+def test_with_rule_accepts_every_registered_rule_for_closed_world_sources_and_refuses_others():
     cfg = load_config()
     for rule in RULES:
-        assert cfg.with_rule(rule).rule == rule
+        if RULES[rule].empty_set == "required":  # bold: m(∅) > 0 in every source, which evmap's never have
+            with pytest.raises(ValueError, match=f"rule '{rule}' combines only mass functions with m\\(∅\\) > 0"):
+                cfg.with_rule(rule)
+        else:
+            assert cfg.with_rule(rule).rule == rule
     with pytest.raises(ValueError, match="unknown rule 'dempstr'; rules are: .*dempster"):
         cfg.with_rule("dempstr")
 

@@ -231,11 +231,16 @@ def list_rules(args: argparse.Namespace) -> int:
     from evmap.sources.plugins import load_plugins, origin_of
 
     refused = [p for p in load_plugins() if p.group == "evmap.rules" and p.problem]
-    out = ["rules (`rule:` in a config, `evmap run --rule NAME`):"]
+    out = [
+        "rules (`rule:` in a config, `evmap run --rule NAME`), the properties each claims, and what it does with",
+        "mass on the empty set in a source (empty set: refuse, conflict, as_set, or required: m(∅) > 0 in every",
+        "source, which evmap's sources never give, so such a rule is for the engine, not for a config):",
+    ]
     width = max(map(len, RULES))
     for name in sorted(RULES):
-        claimed = ", ".join(sorted(RULES[name].properties)) or "no properties claimed"
-        out.append(f"  {name:<{width}}  {origin_of('evmap.rules', name)}; {claimed}")
+        rule = RULES[name]
+        claimed = ", ".join(sorted(rule.properties)) or "no properties claimed"
+        out.append(f"  {name:<{width}}  {origin_of('evmap.rules', name)}; {claimed}; empty set: {rule.empty_set}")
     out += [f"refused: {p.name} from {p.origin}: {p.problem}" for p in refused]
     print("\n".join(out))
     return 0

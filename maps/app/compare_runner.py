@@ -37,7 +37,8 @@ from evmap.maps.app.compare_metrics import (
     world_metrics,
 )
 from evmap.maps.app.compare_tables import Comparison, Tally
-from evmap.sources.plugins import load_plugins, refusal
+from evmap.sources.config_model import check_rule
+from evmap.sources.plugins import load_plugins
 from evmap.sources.sim.worldgen import generate_world, scenario_yaml, world_seed
 from evmap.sources.sim.worldgen_params import WorldGenParams
 
@@ -156,17 +157,16 @@ def check_rules(rules: Sequence[str] | str) -> tuple[str, ...]:
     >>> check_rules("dempster,nope")
     Traceback (most recent call last):
     ...
-    ValueError: rules: unknown rule 'nope'; known rules: ...
+    ValueError: rules: unknown rule 'nope'; rules are: ...
     """
     names = [r.strip() for r in (rules.split(",") if isinstance(rules, str) else rules)]
     if not names or any(not n for n in names):
         raise ValueError(f"rules: need one or more comma-separated rule names, got {rules!r}")
-    if any(n not in RULES for n in names):
-        load_plugins()  # rules of installed packages, registered on first use
     for n in names:
-        if n not in RULES:
-            problem = refusal("evmap.rules", n) or f"unknown rule {n!r}; known rules: {', '.join(sorted(RULES))}"
-            raise ValueError(f"rules: {problem}")
+        try:
+            check_rule(n)
+        except ValueError as exc:
+            raise ValueError(f"rules: {exc}") from None
     if len(set(names)) < len(names):
         raise ValueError(f"rules: a rule is named twice in {names}")
     return tuple(names)
