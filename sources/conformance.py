@@ -1,9 +1,12 @@
-"""The conformance checks every evidence source passes (its rows are mass functions, one per object), and
-those every sensor kind passes (one valid feature value per segment, deterministic, the same one by one).
+"""The conformance checks every evidence source passes (its rows are mass functions, one per object), those
+every sensor kind passes (one valid feature value per segment, deterministic, the same one by one), and those
+every combination rule from a plugin passes (it combines two and three sources, one row or a batch, and holds
+the properties it claims on probe mass functions).
 
 Shared by the registration of a source kind and the build of every source
 (:mod:`evmap.sources.evidence`), the registration of a sensor kind
-(:func:`evmap.sources.sensor_kinds.register_sensor_kind`), and the test suites of both.
+(:func:`evmap.sources.sensor_kinds.register_sensor_kind`), the registration of a plugin's rule
+(:mod:`evmap.sources.plugins`), and the test suites of each.
 """
 
 from __future__ import annotations
@@ -14,9 +17,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evidential import Frame
+from evidential import RULES, Frame, combine_batch
 
-__all__ = ["MASS_TOLERANCE", "check_masses", "check_sensor", "check_source", "example_readings"]
+__all__ = ["MASS_TOLERANCE", "check_masses", "check_rule_function", "check_sensor", "check_source", "example_readings"]
 
 MASS_TOLERANCE = 1e-9
 """Masses (and ramp proportions) must sum to 1 within this."""
@@ -121,3 +124,72 @@ def check_sensor(sensor: Any, arrays: Mapping[str, tuple[int | str, ...]]) -> No
                         f"{values[i].item()!r} in a batch ({length} readings)"
                     )
         sensor.features(readings, EXAMPLE_P[:0], EXAMPLE_Q[:0])
+
+
+_PROBES = (
+    np.array([[0.0, 0.6, 0.1, 0.3], [0.0, 0.2, 0.5, 0.3], [0.0, 0.1, 0.1, 0.8]]),
+    np.array([[0.0, 0.5, 0.0, 0.0, 0.2, 0.0, 0.0, 0.3], [0.0, 0.1, 0.3, 0.0, 0.0, 0.0, 0.4, 0.2], [0.0] * 7 + [1.0]]),
+)
+"""Three mass functions (rows) on 2 and on 3 elements, each with m(Θ) > 0, the third of three elements vacuous;
+read-only, so that a rule writing into its sources fails here, not later."""
+
+_BAYESIAN = np.array([[0.0, 0.7, 0.3, 0.0], [0.0, 0.4, 0.6, 0.0]])
+"""Two Bayesian mass functions on 2 elements."""
+
+
+def check_rule_function(name: str) -> None:
+    """The conformance checks of the registered rule ``name`` (:data:`evidential.RULES`) on probe mass functions.
+
+    It combines two and three sources, one row and a batch of rows alike (subnormal probes, with some mass
+    moved to ∅, for a rule whose ``empty_set`` is ``required``), into mass functions; and it holds the
+    properties it claims (commutative, associative, idempotent, vacuous identity, Bayes' on Bayesian mass
+    functions) on the probes, within :data:`MASS_TOLERANCE`. A probe cannot prove a property; it refutes a
+    false claim.
+
+    Raises
+    ------
+    ValueError
+        saying which check failed.
+    """
+    rule = RULES[name]
+    probes = [p.copy() for p in _PROBES]
+    for p in probes:
+        if rule.empty_set == "required":
+            p[:, 0] = 0.1 * p[:, -1]  # a tenth of m(Θ) moved to ∅: every probe subnormal
+            p[:, -1] *= 0.9
+        p.flags.writeable = False
+    for p in probes:
+        a, b, c = p[0:1], p[1:2], p[2:3]
+        two, three = combine_batch(a, b, rule=name), combine_batch(a, b, c, rule=name)
+        batch = combine_batch(p[:2], p[1:], rule=name)  # rows (a, b) and (b, c) at once
+        if not np.allclose(batch[:1], two, rtol=0, atol=MASS_TOLERANCE):
+            raise ValueError(f"rule {name!r} gives {batch[0].tolist()} in a batch but {two[0].tolist()} alone")
+        claims = {  # claim: (the sources to combine, what they must give, the two sides named)
+            "commutative": ((b, a), two, "a ⊕ b and b ⊕ a"),
+            "associative": ((two, c), three, "(a ⊕ b) ⊕ c and a ⊕ b ⊕ c"),
+            "idempotent": ((a, a), a, "a ⊕ a and a"),
+            "vacuous_identity": ((a, _vacuous(a)), a, "a ⊕ vacuous and a"),
+        }
+        if rule.empty_set == "required":
+            del claims["vacuous_identity"]  # the vacuous mass function has m(∅) = 0: not one this rule takes
+        for claim in sorted(rule.properties & set(claims)):
+            sources, expected, what = claims[claim]
+            _check_claim(name, claim, combine_batch(*sources, rule=name), expected, what)
+    if "bayes_on_bayesian" in rule.properties:
+        p, q = _BAYESIAN[:1], _BAYESIAN[1:]
+        got, expected = combine_batch(p, q, rule=name), combine_batch(p, q, rule="bayes")
+        _check_claim(name, "bayes_on_bayesian", got, expected, "it and 'bayes' on Bayesian ones")
+
+
+def _check_claim(name: str, claim: str, got: NDArray[np.float64], expected: NDArray[np.float64], what: str) -> None:
+    """Refuse a claim the probes refute: ``got`` and ``expected`` (the two sides ``what`` names) differ."""
+    gap = float(np.abs(got - expected).max())
+    if not gap <= MASS_TOLERANCE:
+        raise ValueError(f"rule {name!r} claims {claim!r}, but on probe mass functions {what} differ by {gap:.3g}")
+
+
+def _vacuous(rows: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The vacuous mass function, as many rows as ``rows``, over their frame."""
+    out = np.zeros_like(rows)
+    out[:, -1] = 1.0
+    return out

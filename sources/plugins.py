@@ -37,9 +37,8 @@ from dataclasses import dataclass
 from importlib.metadata import EntryPoint, entry_points
 from typing import Any
 
-import numpy as np
-
-from evidential import RULES, combine_batch, register_rule
+from evidential import RULES, register_rule
+from evmap.sources.conformance import check_rule_function
 from evmap.sources.evidence import SourceKind, register_kind
 from evmap.sources.sensor_kinds import SENSOR_KINDS, SensorKind, register_sensor_kind
 
@@ -129,21 +128,15 @@ def register_plugin(group: str, name: str, obj: Any, origin: str) -> None:
     registrars[group](name, obj, origin)
 
 
-_PROBES = (
-    (np.array([[0.0, 0.6, 0.1, 0.3]]), np.array([[0.0, 0.2, 0.5, 0.3]])),
-    (np.array([[0.0, 0.5, 0.0, 0.0, 0.2, 0.0, 0.0, 0.3]]), np.array([[0.0, 0.1, 0.3, 0.0, 0.0, 0.0, 0.4, 0.2]])),
-)
-"""Pairs of mass functions (on 2 and 3 elements, m(Θ) > 0) that a plugin rule must combine into one."""
-
-
 def _register_rule(name: str, function: Any, origin: str) -> None:
     if not callable(function):
         raise TypeError(f"rule {name!r}: the entry point gives {type(function).__name__}, not a function")
+    if not name or any(c == "," or c.isspace() for c in name):
+        raise ValueError(f"rule {name!r}: a rule's name may not hold a comma or a space (--rules lists names so)")
     options = dict(getattr(function, "rule_options", {}))
     register_rule(name, builtin=False, **options)(function)
     try:
-        for a, b in _PROBES:
-            combine_batch(a, b, rule=name)
+        check_rule_function(name)
     except Exception as exc:  # noqa: BLE001 - whatever the rule raised, it is refused, and says why
         del RULES[name]
         raise ValueError(f"rule {name!r} refused: {exc}") from None

@@ -197,12 +197,12 @@ def _average(sources, n):
 
 def _spoilt(how):
     """The average, spoilt ``how`` in every column but the first: it passes the registration's probes (one
-    column each) and fails on the first batch of two or more."""
+    column each, or two) and fails on the first batch of three or more."""
 
     def rule(sources, n):
         out = _average(sources, n)
         masses = out.masses.copy()
-        if masses.shape[1] > 1:
+        if masses.shape[1] > 2:
             if how == "negative":
                 masses[-1, 1:] += 0.3
                 masses[0, 1:] -= 0.3
@@ -269,10 +269,59 @@ def test_a_rule_that_breaks_after_registration_is_refused_by_name_on_every_path(
         frame = Frame(["real", "noise"])
         a = MassFunction(frame, {"real": 0.6, "noise": 0.1, "real|noise": 0.3})
         assert combine(a, a, rule=name).frame == frame  # one mass function: fine
-        pair = np.array([[0.0, 0.6, 0.1, 0.3], [0.0, 0.2, 0.5, 0.3]])
+        rows = np.array([[0.0, 0.6, 0.1, 0.3], [0.0, 0.2, 0.5, 0.3], [0.0, 0.1, 0.1, 0.8]])
         with pytest.raises(MassError, match=rf"rule '{name}' returned"):
-            combine_batch(pair, pair, rule=name)
+            combine_batch(rows, rows, rule=name)
         with pytest.raises(MassError, match=rf"rule '{name}' returned"):
             run_scenario(default_scenario(), load_config().with_rule(name))
     finally:
         RULES.pop(name)
+
+
+def _registered(name, function, **options):
+    """Register ``function`` as the plugin rule ``name`` with these ``rule_options``; whether it was."""
+    function.rule_options = options
+    try:
+        register_plugin("evmap.rules", name, function, "tests")
+    finally:
+        registered = RULES.pop(name, None) is not None
+    return registered
+
+
+def test_a_rule_needing_mass_on_the_empty_set_is_probed_with_subnormal_mass_functions():
+    from evidential.rules import bold
+
+    assert _registered("my_bold", lambda sources, n: bold(sources, n), open_world=True, empty_set="required",
+                       properties=["associative", "commutative", "idempotent"])  # fmt: skip
+
+
+def test_a_claimed_property_the_probes_refute_is_refused_by_name():
+    with pytest.raises(ValueError, match="rule 'avg' claims 'associative', but on probe mass functions "
+                       r"\(a ⊕ b\) ⊕ c and a ⊕ b ⊕ c differ by"):  # fmt: skip
+        _registered("avg", _average, properties=["commutative", "associative"], empty_set="conflict")
+    with pytest.raises(ValueError, match="claims 'idempotent'"):
+        _registered("vacuous", lambda s, n: Stack(np.array([(1 << n) - 1]), np.ones((1, s[0].masses.shape[1]))),
+                    properties=["idempotent"])  # fmt: skip
+    assert _registered("avg", _average, properties=["commutative"], empty_set="conflict")
+
+
+def test_a_rule_failing_on_a_batch_or_on_three_sources_is_refused_at_registration():
+    def pairs_only(sources, n):
+        if len(sources) != 2:
+            raise ValueError("two sources only")
+        return _average(sources, n)
+
+    def one_row(sources, n):
+        if sources[0].masses.shape[1] > 1:
+            raise IndexError("one row only")
+        return _average(sources, n)
+
+    with pytest.raises(ValueError, match="rule 'pairs' refused: two sources only"):
+        _registered("pairs", pairs_only)
+    with pytest.raises(ValueError, match="rule 'rows' refused: one row only"):
+        _registered("rows", one_row)
+
+
+def test_a_rule_name_that_compare_could_not_name_is_refused():
+    with pytest.raises(ValueError, match=r"rule 'a,b': a rule's name may not hold a comma or a space"):
+        _registered("a,b", _average)
