@@ -4,7 +4,7 @@ most k focal sets, each returning the error bound of its approximation."""
 from __future__ import annotations
 
 import math
-from numbers import Integral
+from numbers import Integral, Real
 from typing import NamedTuple
 
 import numpy as np
@@ -80,8 +80,8 @@ def monte_carlo_combine(
         raise MassError(f"samples must be an integer >= 1, got {samples!r}")
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    if not 0 < confidence < 1:
-        raise MassError(f"confidence must be in (0, 1), got {confidence!r}")
+    if not (isinstance(confidence, Real) and not isinstance(confidence, bool) and 0 < confidence < 1):
+        raise MassError(f"confidence must be a number in (0, 1), got {confidence!r}")
     draws = [_draw(m, samples, rng) for m in masses]
     keys = np.bitwise_and.reduce(draws) if len(draws) > 1 else draws[0]
     if normalise:

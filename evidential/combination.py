@@ -23,7 +23,7 @@ from evidential.stack import (
     full,
     to_dense,
 )
-from evidential.validation import SUM_TOLERANCE
+from evidential.validation import SUM_TOLERANCE, real_array
 
 
 def _resolve(rule: str | RuleFunction) -> RuleFunction:
@@ -111,7 +111,7 @@ def _batch(i: int, array: ArrayLike, shape: tuple[int, ...] | None, columns: boo
     """Validated (2**n, N) C-contiguous copy of a (N, 2**n) batch; with ``columns``, up to
     2**:data:`~evidential.stack.COLUMN_MAX_BITS` sets, its transposed view (validated column
     by column, for :func:`~evidential.stack.dempster_columns` to read in place)."""
-    a = np.asarray(array, dtype=np.float64)
+    a = real_array(array, f"batch {i}")
     size = a.shape[-1] if a.ndim == 2 else 0
     if size < 2 or size & (size - 1) or (shape is not None and a.shape != shape):
         want = "(N, 2**n) with n >= 1" if shape is None else f"{shape} like batch 0"

@@ -40,7 +40,10 @@ def condition(m: MassFunction, focal: Focal, *, normalise: bool = True) -> MassF
     >>> condition(m, "a|b", normalise=False).to_dict()
     {'': 0.2, 'a': 0.5, 'b': 0.3}
     """
-    event = MassFunction(m.frame, {focal: 1.0})
+    if not isinstance(normalise, bool):
+        raise TypeError(f"normalise must be True or False, got {normalise!r}")
+    a = m.frame.mask(focal)
+    event = MassFunction(m.frame, {a: 1.0}, open_world=a == 0)  # on ∅: all to ∅ (TBM), or total conflict
     return combine(m, event, rule="dempster" if normalise else "conjunctive")
 
 

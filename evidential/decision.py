@@ -8,6 +8,7 @@ belief functions: a review", IJAR 109).
 
 from __future__ import annotations
 
+import math
 from numbers import Real
 from typing import NamedTuple
 
@@ -142,6 +143,8 @@ def choose(
     """
     if criterion not in CRITERIA:
         raise MassError(f"criterion must be one of {CRITERIA}, got {criterion!r}")
+    if reject is not None and not (isinstance(reject, Real) and not isinstance(reject, bool) and math.isfinite(reject)):
+        raise MassError(f"reject (the utility of abstaining) must be a finite number or None, got {reject!r}")
     if criterion == "hurwicz":
         value = hurwicz(m, utility, pessimism)
     else:

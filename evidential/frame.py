@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Set as AbstractSet
 from types import MappingProxyType
 
 import numpy as np
@@ -44,6 +45,8 @@ class Frame:
     def __init__(self, elements: Iterable[str]) -> None:
         if isinstance(elements, str):
             raise FrameError(f"frame elements must be an iterable of names, got the string {elements!r}")
+        if isinstance(elements, AbstractSet):  # no order of its own: bit i would depend on the hash seed
+            raise FrameError(f"frame elements must be in an order (a list or tuple), got a {type(elements).__name__}")
         names = tuple(elements)
         if not names:
             raise FrameError("a frame needs at least one element, got none")
@@ -113,6 +116,8 @@ class Frame:
             if not 0 <= focal <= self.full:
                 raise FrameError(f"focal set bitmask {focal} is outside 0..{self.full} of {self!r}")
             return focal
+        if not isinstance(focal, str | Iterable):
+            raise FrameError(f"focal set {focal!r} must be a bitmask, a name or names, got a {type(focal).__name__}")
         names = ([] if focal == "" else focal.split("|")) if isinstance(focal, str) else focal
         mask = 0
         for name in names:

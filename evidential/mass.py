@@ -20,7 +20,7 @@ from evidential.frame import Focal, Frame
 from evidential.queries import Query
 from evidential.rules import dempster
 from evidential.stack import DENSE_MAX_BITS, Stack
-from evidential.validation import checked_mapping, checked_rows, read_only
+from evidential.validation import checked_mapping, checked_rows, read_only, real_array
 
 
 class MassFunction:
@@ -152,7 +152,7 @@ class MassFunction:
         >>> MassFunction.from_dense(Frame(["a", "b"]), [0, 0.5, 0, 0.5]).to_dict()
         {'a': 0.5, 'a|b': 0.5}
         """
-        v = np.asarray(vector, dtype=np.float64)
+        v = real_array(vector, "a dense mass vector")
         if v.shape != (1 << len(frame),):
             raise MassError(f"a dense mass vector over {frame!r} has shape ({1 << len(frame)},), got {v.shape}")
         return cls(frame, {int(b): float(v[b]) for b in np.flatnonzero(v != 0)}, open_world=open_world)

@@ -35,6 +35,23 @@ def read_only(masks: NDArray[np.int64], masses: NDArray[np.float64]) -> Stack:
     return Stack(masks, masses)
 
 
+def real_array(values: ArrayLike, what: str) -> NDArray[np.float64]:
+    """``values`` as a float64 array, refusing (:class:`MassError` naming ``what``) bools, strings, complex
+    numbers and objects, as the mapping of one mass function refuses them (a copy only if not float64 already).
+
+    >>> real_array([[0, 1]], "rows").dtype
+    dtype('float64')
+    >>> real_array([["0.5", "0.5"]], "rows")
+    Traceback (most recent call last):
+    ...
+    evidential.errors.MassError: rows must be real numbers, got an array of <U3
+    """
+    a = values if isinstance(values, np.ndarray) else np.asarray(values)
+    if a.dtype.kind not in "fiu":
+        raise MassError(f"{what} must be real numbers, got an array of {a.dtype}")
+    return a.astype(np.float64, copy=False)
+
+
 def _check_frame(frame: object) -> None:
     if not isinstance(frame, Frame):
         raise FrameError(f"frame must be a Frame, got {type(frame).__name__}")
@@ -80,8 +97,10 @@ def checked_rows(
     _check_frame(frame)
     keys = focal_masks(frame, masks)
     try:
-        values = np.array(rows, dtype=np.float64)  # a copy: the mass functions keep views of it
+        values = np.array(real_array(rows, "rows"), dtype=np.float64)  # a copy: the mass functions keep views of it
     except (TypeError, ValueError) as exc:
+        if isinstance(exc, MassError):
+            raise
         raise MassError(f"rows must be an (N, {keys.size}) array of numbers: {exc}") from None
     if values.ndim != 2 or values.shape[1] != keys.size:
         raise MassError(f"rows must have shape (N, {keys.size}) for {keys.size} focal sets, got {values.shape}")

@@ -236,3 +236,14 @@ def test_generalized_bayes_closed_form_and_bayes_theorem(pl, prior):
     weights = np.array(prior) * np.array(pl)
     for i, w in enumerate(weights / weights.sum()):
         assert posterior[1 << i] == pytest.approx(w, abs=1e-9)
+
+
+def test_conditioning_on_the_empty_set_and_a_flag_that_is_no_bool():
+    m = MassFunction(ABC, {"w0": 0.5, "w1|w2": 0.5})
+    with pytest.raises(TotalConflictError):
+        condition(m, "")  # as m.condition("") says
+    with pytest.raises(TotalConflictError):
+        m.condition("")
+    assert condition(m, "", normalise=False).to_dict() == {"": 1.0}  # the TBM: everything to ∅
+    with pytest.raises(TypeError, match="normalise must be True or False, got 'no'"):
+        condition(m, "w0", normalise="no")

@@ -66,6 +66,9 @@ def test_reject_option_known_answer():
     assert choose(m, u, criterion="upper", reject=0.9) is None
     assert choose(m, u, criterion="hurwicz", pessimism=0.5, reject=0.55) == 0  # (0.4 + 0.8) / 2 = 0.6
     assert choose(m, u, criterion="hurwicz", pessimism=0.5, reject=0.65) is None
+    for bad in (float("nan"), "5", True):  # nan would never abstain, "5" fails in numpy
+        with pytest.raises(MassError, match="reject .* must be a finite number or None"):
+            choose(m, u, reject=bad)
 
 
 @settings(max_examples=40)
@@ -162,6 +165,8 @@ def test_monte_carlo_on_a_large_frame_and_errors():
         monte_carlo_combine(m1, samples=10, rng=1)
     with pytest.raises(MassError, match="samples must be an integer >= 1, got 0"):
         monte_carlo_combine(m1, samples=0, rng=np.random.default_rng())
+    with pytest.raises(MassError, match="confidence must be a number in \\(0, 1\\), got '0.9'"):
+        monte_carlo_combine(m1, samples=10, rng=np.random.default_rng(), confidence="0.9")
 
 
 @settings(max_examples=40)

@@ -149,7 +149,11 @@ def test_mass_function_arrays_are_read_only():
         ([0, 1], [[0.0, 1.0], [0.2, 0.8]], "row 1: mass on the empty set '' needs open_world=True"),
         ([1, "real"], [[0.5, 0.5]], "focal set 'real' is given twice"),
         ([1, 3], [[0.5, 0.25, 0.25]], r"rows must have shape \(N, 2\) for 2 focal sets, got \(1, 3\)"),
-        ([1, 3], [["a", "b"]], "rows must be an .* array of numbers"),
+        ([1, 3], [["a", "b"]], "rows must be real numbers, got an array of <U1"),
+        ([1, 3], [["0.5", "0.5"]], "rows must be real numbers"),  # as a mapping's masses: a string is no number
+        ([1, 3], [[True, False]], "rows must be real numbers, got an array of bool"),
+        ([1, 3], [[0.5 + 0j, 0.5]], "rows must be real numbers, got an array of complex128"),
+        ([1, 3], [[0.5, [0.5]]], "rows must be an .* array of numbers"),
         (np.array([1, 4]), [[0.5, 0.5]], "focal set 4 is not a subset of"),
         (["real", "wall"], [[0.5, 0.5]], "element 'wall' is not in"),
     ],
@@ -158,3 +162,13 @@ def test_from_rows_errors_name_the_row_and_the_focal_set(masks, rows, match):
     with pytest.raises(ValueError, match=match):
         MassFunction.from_rows(FRAME, masks, rows)
     assert MassFunction.from_rows(FRAME, [0, 1], [[0.2, 0.8]], open_world=True)[0].to_dict() == {"": 0.2, "real": 0.8}
+
+
+def test_a_frame_needs_an_order_and_a_focal_set_a_bitmask_or_names():
+    with pytest.raises(FrameError, match="must be in an order \\(a list or tuple\\), got a set"):
+        Frame({"a", "b"})  # bit i would depend on the hash seed
+    frame = Frame(["a", "b"])
+    for focal in (1.0, None):
+        with pytest.raises(FrameError, match=f"focal set {focal!r} must be a bitmask, a name or names"):
+            MassFunction(frame, {focal: 1.0})
+    assert Frame(name for name in ("a", "b")) == frame  # any ordered iterable
