@@ -23,6 +23,7 @@ segment, categories among those declared, numbers finite.
 
 from __future__ import annotations
 
+import json
 import re
 import zipfile
 import zlib
@@ -120,7 +121,7 @@ class SensorKind:
         >>> print("\\n".join(sensor_kinds()["detector"].describe()[:4]))
           detector  builtin; simulated: reports objects of some materials, with a detection probability and false alarms by range
             readings: pose (3,), points (D, 2)
-            features: NAME_detection ['detected', 'missed', 'out_of_view']
+            features (of the example): NAME_detection ['detected', 'missed', 'out_of_view']
             keys (example: {kind: detector, materials: [glass]}):
         """
         simulated = "simulated" if self.simulate is not None else "not simulated: readings from logs or Python"
@@ -129,7 +130,7 @@ class SensorKind:
         out = [
             f"  {self.name}  {self.origin}; {simulated}: {self.summary}",
             f"    readings: {', '.join(f'{a} {_shape(s)}' for a, s in self.arrays.items())}",
-            f"    features: {_features(self.declares('NAME', example))}",
+            f"    features (of the example): {_features(self.declares('NAME', example))}",
             f"    keys (example: {{{written}}}):",
         ]
         for key, field in self.spec.model_fields.items():
@@ -255,7 +256,7 @@ def _flow(value: Any) -> str:
         return "[" + ", ".join(_flow(v) for v in value) + "]"
     if isinstance(value, str):
         return value or '""'
-    return str(value) if value is not None else "null"
+    return json.dumps(value) if isinstance(value, bool) or value is None else str(value)
 
 
 def check_readings(kind: SensorKind, readings: Mapping[str, ArrayLike], sensor: str) -> dict[str, NDArray[Any]]:

@@ -71,7 +71,7 @@ def test_evmap_sources_lists_plugin_kinds_with_their_origin(site):
     assert done.returncode == 0, done.stderr
     assert "  logistic  evmap-test-plugins 0.1 (evmap_test_plugins:LOGISTIC)" in done.stdout
     assert "  bumper  evmap-test-plugins 0.1 (evmap_test_plugins:BUMPER); not simulated" in done.stdout
-    assert "    features: NAME_touched ['yes', 'no']" in done.stdout
+    assert "    features (of the example): NAME_touched ['yes', 'no']" in done.stdout
     assert re.search(r"refused: source_kinds overfull from .*source kind 'overfull': row 0 sums to 2", done.stdout)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import json
 import math
 
 import numpy as np
@@ -144,5 +145,5 @@ def _label(frame: Frame, mask: int) -> str:
 
 
 def _fields(model: BaseModel) -> str:
-    """A parameter model as ``key=value`` pairs."""
-    return " ".join(f"{k}={v}" for k, v in model)
+    """A parameter model as ``key=value`` pairs, values spelt as YAML has them (``true``, ``null``)."""
+    return " ".join(f"{k}={json.dumps(v) if isinstance(v, bool) or v is None else v}" for k, v in model)
