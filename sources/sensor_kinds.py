@@ -277,7 +277,12 @@ def check_readings(kind: SensorKind, readings: Mapping[str, ArrayLike], sensor: 
     sizes: dict[str, int] = {}
     out: dict[str, NDArray[Any]] = {}
     for name, shape in kind.arrays.items():
-        a = np.asarray(readings[name], dtype=float)
+        given = np.asarray(readings[name])
+        if given.dtype.kind not in "fiu" and given.size:
+            raise ValueError(
+                f"sensor {sensor!r}: readings {name!r} must be real numbers, got an array of {given.dtype}"
+            )
+        a = given.astype(float)
         if a.ndim == 1 and len(shape) == 2 and a.size == 0:
             a = a.reshape(0, *[s for s in shape[1:] if isinstance(s, int)])
         if a.ndim != len(shape):

@@ -229,6 +229,11 @@ def test_observation_from_arrays_refuses_wrong_arrays_by_name():
         observation_from_arrays(cfg, 0, [1, 1, 0], wall)
     with pytest.raises(ValueError, match=r"sensor 'ir': readings 'ranges' must have shape \('B',\), got \(1,\)"):
         observation_from_arrays(cfg, 0, [1, 1, 0], wall, sensors={"ir": {**ir, "ranges": [2.0]}})
+    for ranges, dtype in [(["2.0", "inf"], "<U3"), ([True, False], "bool"), ([2 + 0j, 1j], "complex128")]:
+        with pytest.raises(
+            ValueError, match=f"sensor 'ir': readings 'ranges' must be real numbers, got an array of {dtype}"
+        ):
+            observation_from_arrays(cfg, 0, [1, 1, 0], wall, sensors={"ir": {**ir, "ranges": ranges}})
     with pytest.raises(ValueError, match=r"segments must be an \(N, 2, 2\) array"):
         observation_from_arrays(cfg, 0, [1, 1, 0], wall[0], sensors={"ir": ir})
     with pytest.raises(ValueError, match=r"sonar: angles \(3,\) and ranges \(2,\)"):
