@@ -349,8 +349,8 @@ def summary_markdown(comparison: Comparison) -> str:
             "Every config and rule fused the same scans. Each cell is the mean over the worlds (a ratio with an "
             f"empty denominator is left out), with, for the metrics, its {CONFIDENCE:.0%} Student t interval over "
             "the worlds in brackets (`<metric>_lo`, `<metric>_hi` in summary.csv), cut to the values the metric can "
-            "take (a share within [0, 1], `map_error` at least 0); the pooled ratios are over the segments of all "
-            "worlds."
+            "take (a share within [0, 1], `map_error` at least 0; none where fewer than two worlds give the "
+            "metric); the pooled ratios are over the segments of all worlds."
         ),
         "",
         *[f"- `{m}`: {DEFINITIONS[m]}." for m in FIGURES],
