@@ -36,6 +36,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
+from weakref import WeakKeyDictionary
 
 import numpy as np
 import shapely
@@ -192,8 +193,27 @@ def shadows(
 
 
 def free_space(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shapely.Geometry:
-    """The map's free space (module doc): sonar sectors and contour rays of every pose, short of believed lines."""
+    """The map's free space (module doc): sonar sectors and contour rays of every pose, short of believed lines.
+
+    Made once per version of the map (and ``params``), prepared for queries: the occupancy grid and the
+    planner's test of unknown space (:func:`evmap.maps.planner.is_segment_clear`) read the same geometry.
+    """
     params = params or FreeSpaceParams()
+    kept = _MADE.get(bm)
+    if kept is not None and kept[0] == bm.version and kept[1] == params:
+        return kept[2]
+    made = _free_space(bm, params)
+    shapely.prepare(made)
+    _MADE[bm] = (bm.version, params, made)
+    return made
+
+
+_MADE: WeakKeyDictionary[BeliefMap, tuple[int, FreeSpaceParams, shapely.Geometry]] = WeakKeyDictionary()
+"""Each map's free space, with the map's version and the parameters it was made for."""
+
+
+def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
+    """:func:`free_space`, made anew."""
     poses = sensed(bm)
     if not poses:
         return bm.open_space

@@ -214,6 +214,30 @@ def test_unknown_space_blocks_a_path_unless_told_free():
         bm.is_segment_clear((0, 0), (1, 0), unknown="maybe")
 
 
+def test_unknown_space_is_the_grid_s_on_a_run_and_on_a_log_without_sonar():
+    """The free space a path must keep to is the occupancy grid's (the sensors' free space short of believed
+    surfaces), not the stored sonar open space: a double bounce's sector beyond a wall is no free space, and a
+    laser-only log, which stores no sonar open space, still has the free space of its rays."""
+    from pathlib import Path
+
+    from evmap.maps.app.log_run import run_log
+    from evmap.maps.app.run import run_scenario
+    from evmap.maps.free_space import free_space
+    from evmap.sources.config import load_config
+    from evmap.sources.sim.scenario import default_scenario
+
+    corridor = run_scenario(default_scenario(), load_config()).map
+    behind = ((8.3, -0.5), (8.3, -2.0))  # south of the corridor's south wall (y = 0)
+    assert corridor.open_space.covers(shapely.LineString(behind))  # a sonar sector reached there
+    assert not corridor.is_segment_clear(*behind) and corridor.is_segment_clear(*behind, unknown="free")
+    assert free_space(corridor) is free_space(corridor)  # made once per version of the map
+    log = run_log(Path(__file__).parent / "data" / "logs" / "intel-excerpt.log.gz", load_config(), limit=5).map
+    assert log.open_space.is_empty
+    inside = shapely.get_parts(free_space(log))
+    start = max(inside, key=lambda g: g.area).representative_point()
+    assert log.is_segment_clear((start.x, start.y), (start.x + 0.01, start.y), clearance=0.0)
+
+
 def test_queries_without_obstacles_and_on_a_freshly_loaded_map(tmp_path):
     bm = BeliefMap(FRAME)
     assert bm.nearest_obstacle((3, 4), 0.0) == (math.inf, None) and bm.is_segment_clear(
