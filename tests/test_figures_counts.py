@@ -147,3 +147,20 @@ def test_simulated_walls_are_labelled_true_walls() -> None:
     run = run_scenario(default_scenario(), load_config())
     labels = [t.get_text() for t in figures.sonar_scan_figure(run).legends[0].get_texts()]
     assert "true walls (simulated world)" in labels and not any("hand-measured" in label for label in labels)
+
+
+def test_figures_of_a_log_count_its_raw_segments_as_the_report_does() -> None:
+    """A log's lines seen from many poses stand on consolidated supports (rows of the segment store that are no
+    scan's segment): the figures, like report.json and segments.json, count the raw segments only."""
+    from evmap.maps.app.log_run import run_log
+
+    run = run_log(Path(__file__).parent / "data" / "logs" / "intel-excerpt.log.gz", load_config())
+    assert (run.map.segments.role == "support").any()
+    r = report(run)
+    fig4 = figures.lsl_lines_figure(run)
+    assert f"{r['lsl_segments']} laser segments" in text(fig4)
+    kept = r["lsl_segments"] - r["eliminated"]
+    assert f"{r['eliminated']} of {r['lsl_segments']} segments eliminated as noise, {kept} kept" in text(
+        figures.noise_figure(run)
+    )
+    assert f"{r['lines_before_merge']} segments → " in text(figures.merged_map_figure(run))

@@ -51,9 +51,10 @@ def poses(run: Run) -> NDArray[np.float64]:
 
 
 def pose_ids(run: Run, pose: int | None) -> NDArray[np.intp]:
-    """Ids (rows of the map's segment store) of the LSL segments of one pose, or of every pose (``None``)."""
+    """Ids (rows of the map's segment store) of the LSL segments of one pose, or of every pose (``None``): the
+    raw segments, as report.json and segments.json count them, never a line's consolidated support."""
     if pose is None:
-        return np.arange(len(run.map.segments))
+        return np.flatnonzero(run.map.segments.role != "support")
     return outcome(run, pose).segments
 
 
