@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import stat
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -129,14 +130,17 @@ def read_file(path: str | Path) -> MapParts:
         return parts
 
 
+_CLOSING_CHECKSUM = re.compile(rb',\s*"checksum"\s*:\s*"([0-9a-f]{64})"\s*\}\s*\Z')
+"""The file's last member, the checksum, as evmap writes it (``,"checksum":"<hex>"}``) or with whitespace."""
+
+
 def _checksum_ok(text: bytes) -> bool | None:
-    """Whether the file's closing checksum matches the rest; None if it has none."""
-    end = text.rstrip()
-    at = end.rfind(b"," + CHECKSUM_KEY)
-    if at < 0 or not end.endswith(b'"}') or len(end) - at != len(CHECKSUM_KEY) + 1 + 64 + 2:
+    """Whether the file's closing checksum matches the rest (the bytes up to the comma before it, closed by
+    ``}``); None if it has none."""
+    found = _CLOSING_CHECKSUM.search(text, max(0, len(text) - 4096))
+    if found is None:
         return None
-    digest = end[at + 1 + len(CHECKSUM_KEY) : -2]
-    return hashlib.sha256(end[:at] + b"}").hexdigest().encode() == digest
+    return hashlib.sha256(text[: found.start()] + b"}").hexdigest().encode() == found.group(1)
 
 
 def read_map(data: Any, name: str = "map") -> MapParts:

@@ -88,6 +88,23 @@ def test_the_checksum_is_required_and_a_hand_edit_is_caught(saved, tmp_path):
         BeliefMap.load(path)
 
 
+@pytest.mark.parametrize("layout", [{}, {"indent": 1}, {"separators": (", ", ": ")}])
+def test_a_checksum_written_as_the_contract_says_is_accepted_whatever_the_whitespace(saved, tmp_path, layout):
+    """Another tool writes the map with its own JSON layout, the checksum the SHA-256 of the bytes up to the comma
+    before it, closed by '}' (docs/SCENARIO.md): evmap reads it; a wrong digest is still refused."""
+    data = json.loads(saved.read_text())
+    del data["checksum"]
+    body = json.dumps(data, **layout).encode()
+    head = body[: body.rindex(b"}")]
+    digest = hashlib.sha256(head + b"}").hexdigest()
+    path = tmp_path / "other.json"
+    path.write_bytes(head + b', "checksum": "' + digest.encode() + b'"\n}\n')
+    assert BeliefMap.load(path).to_data() == BeliefMap.load(saved).to_data()
+    path.write_bytes(head + b', "checksum": "' + digest[::-1].encode() + b'"\n}\n')
+    with pytest.raises(MapFileError, match="checksum does not match"):
+        BeliefMap.load(path)
+
+
 def test_size_limit_and_files_that_are_not_regular(saved, tmp_path, monkeypatch):
     monkeypatch.setattr(map_format, "MAX_MAP_BYTES", 1000)
     with pytest.raises(MapFileError, match="larger than the limit of 1000 bytes"):
