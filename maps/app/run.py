@@ -208,6 +208,7 @@ def _log_report(run: Run, log: LogSummary) -> dict[str, Any]:
     store: SegmentStore = run.map.segments
     raw = store.role != "support"
     return {
+        "scenario": None,  # no simulated scenario: the contract's key, kept for the tools that read it
         "log": log.source,
         "rule": run.config.rule,
         "scans": log.scans,
