@@ -93,9 +93,9 @@ def test_grid_masses_combine_free_and_the_strongest_object_by_the_rule():
 
         assert cell(-0.15, -0.15) == [0, 0, 0, 1]  # outside the open space, nothing there
         assert cell(0.85, 0.15) == pytest.approx(expect(True, 0))
-        assert cell(0.55, 0.45) == pytest.approx(expect(True, 0.3))  # the line
-        assert cell(0.55, 0.95) == pytest.approx(expect(True, 0.9))  # the line and the stronger point
-        assert cell(0.25, 0.25) == pytest.approx(expect(True, 0.6))
+        assert cell(0.55, 0.45) == pytest.approx(expect(True, 0.3))  # the line, doubted: free evidence too
+        assert cell(0.55, 0.95) == pytest.approx(expect(False, 0.9))  # the line and the stronger point, believed
+        assert cell(0.25, 0.25) == pytest.approx(expect(False, 0.6))  # a believed object: no free evidence
         flat = m.reshape(-1, 4)
         free = np.tile([0, 0.7, 0, 0.3], (len(flat), 1))
         occupied = np.tile([0, 0, 0.3, 0.7], (len(flat), 1))
@@ -218,3 +218,18 @@ def test_unknown_cells_hold_the_policys_value(tmp_path, policy, value, pgm):
 def test_an_unknown_policy_outside_the_three_is_refused():
     with pytest.raises(ValueError, match="unknown"):
         OccupancyParams(unknown="maybe")
+
+
+def test_a_believed_wall_is_occupied_in_the_grid_even_where_its_cells_reach_into_free_space():
+    """A wall of belief 0.6 whose cells have their centres just on the free side: combined with the free space,
+    they read 41 (unknown in the ROS map, where a planner may go); a believed surface's cell takes no free
+    evidence, so they read 80 (occupied); a doubted one (0.4) still combines with the free space."""
+    open_space = shapely.box(0, 0, 2, 1.02)  # free up to 2 cm above the wall at y = 1
+    wall = [[0.0, 1.0]], [[2.0, 1.0]]
+    for belief, value in ((0.6, 80), (0.4, None)):
+        m, origin = evidential_grid(open_space, *wall, [belief], (0, 0, 2, 1.2), 0.1, "dempster", OccupancyParams())
+        on_wall = occupancy_from_masses(m)[int((1.0 - origin[1]) / 0.1), 5:15]
+        if value is not None:
+            assert (on_wall == value).all(), on_wall
+        else:
+            assert (on_wall < 65).all() and (on_wall > 25).all(), on_wall
