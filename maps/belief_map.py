@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 from evidential import RULES, Frame, MassFunction
 from evmap.maps import map_file, map_json, occupancy, planner
 from evmap.maps.all_or_nothing import all_or_nothing
+from evmap.maps.free_space import free_space
 from evmap.maps.map_checks import check_extras
 from evmap.maps.map_format import GRAPH_KEYS, ID_PREFIXES, SCHEMA_VERSION, MapParts
 from evmap.maps.map_objects import MapObjects
@@ -88,7 +89,7 @@ class BeliefMap:
     (True, False)
     >>> grid = bm.occupancy_grid(resolution=0.1)
     >>> grid.dtype, grid.shape, int(grid.max())
-    (dtype('int8'), (35, 45), 61)
+    (dtype('int8'), (35, 45), 90)
     >>> import pathlib, tempfile
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     bm.save(pathlib.Path(tmp) / "map.json")
@@ -343,8 +344,10 @@ class BeliefMap:
         min_belief: float = 0.5,
         unknown: str = "blocked",
     ) -> bool:
-        """:func:`evmap.maps.planner.is_segment_clear`: no obstacle near ``a``-``b``, unknown space blocked."""
-        return planner.is_segment_clear(self, a, b, clearance, min_belief, unknown)
+        """:func:`evmap.maps.planner.is_segment_clear`: no obstacle near ``a``-``b``; unknown space, outside
+        the occupancy grid's free space (:func:`evmap.maps.free_space.free_space`), blocked by default."""
+        free = free_space(self) if unknown == "blocked" else None
+        return planner.is_segment_clear(self, a, b, clearance, min_belief, unknown, free)
 
     def occupancy_masses(
         self, resolution: float = 0.05, params: OccupancyParams | None = None

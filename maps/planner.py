@@ -285,12 +285,14 @@ def is_segment_clear(
     clearance: float = 0.2,
     min_belief: float = 0.5,
     unknown: str = "blocked",
+    free: shapely.Geometry | None = None,
 ) -> bool:
     """True if the straight path ``a``-``b`` is clear: no obstacle with belief at least ``min_belief``
     within ``clearance`` of it, and, with ``unknown="blocked"`` (the default), the whole path in the
-    free space the map knows, the occupancy grid's (:func:`evmap.maps.free_space.free_space`: the sensors'
-    free space short of believed surfaces, made once per version of the map): a path into space no sensor
-    saw free is not clear.
+    free space the map knows, ``free`` (:meth:`BeliefMap.is_segment_clear` gives the occupancy grid's,
+    :func:`evmap.maps.free_space.free_space`: the sensors' free space short of believed surfaces, made once
+    per version of the map; the map's stored open space when not given): a path into space no sensor saw
+    free is not clear.
 
     With ``unknown="free"`` only known obstacles count, and a path may leave the building.
 
@@ -309,11 +311,8 @@ def is_segment_clear(
         raise ValueError(f"clearance must be a finite number >= 0 (m), got {clearance!r}")
     tree = obstacle_tree(bm, belief_level(min_belief))
     path = _geometries(a[None], b[None])[0]
-    if unknown == "blocked":
-        from evmap.maps.free_space import free_space  # here: free_space reads this module's lines
-
-        if not free_space(bm).covers(path):
-            return False
+    if unknown == "blocked" and not (bm.open_space if free is None else free).covers(path):
+        return False
     hits = tree.tree.query(path, predicate="dwithin", distance=clearance).tolist()
     if any(tree.tree_ids[i] not in tree.dirty for i in hits):
         return False
