@@ -134,6 +134,12 @@ class SegmentStore:
             self._data[k][rows] = values
 
     @property
+    def raw(self) -> NDArray[np.bool_]:
+        """(N,) whether each row is a segment a sensor returned (``seen`` 1), not a line's consolidated support,
+        standing or absorbed into a later one: the rows report.json, segments.json and the figures count."""
+        return self.seen == 1
+
+    @property
     def length(self) -> NDArray[np.float64]:
         """(N,) segment lengths."""
         return np.hypot(*(self.q - self.p).T)

@@ -164,3 +164,28 @@ def test_figures_of_a_log_count_its_raw_segments_as_the_report_does() -> None:
         figures.noise_figure(run)
     )
     assert f"{r['lines_before_merge']} segments → " in text(figures.merged_map_figure(run))
+
+
+def test_a_tour_s_consolidated_supports_are_no_segments_of_the_report_the_records_or_the_figures() -> None:
+    """A line seen from more than 3 poses stands on a support row, which a later support may absorb; neither is a
+    segment the LSL returned: report.json, segments.json and the figures count and colour the raw ones only."""
+    from evmap.maps.app.run import segment_records
+    from evmap.sources.sim.worldgen import generate_world, world_seed
+
+    run = run_scenario(generate_world(world_seed(0, 2)), load_config("paper"))  # a 6-pose tour
+    store = run.map.segments
+    assert (store.seen > 1).any() and (store.role[store.seen > 1] == "absorbed").any()
+    r, records = report(run), segment_records(run)
+    assert r["lsl_segments"] == len(records) == r["noise_segments"] + int((store.truth == "real").sum())
+    assert {record["truth"] for record in records} == {"real", "noise"}
+    assert r["lines_before_merge"] == sum(not record["eliminated"] for record in records)
+    real = r["lsl_segments"] - r["noise_segments"]
+    assert numbers(r"(\d+) LSL segments: (\d+) on true surfaces, (\d+) sunlight phantoms", figures.lsl_lines_figure(run)) == (
+        r["lsl_segments"], real, r["noise_segments"],
+    )  # fmt: skip
+    assert f"{r['lines_before_merge']} segments → " in text(figures.merged_map_figure(run))
+    from evmap.maps.app.compare_metrics import world_metrics
+
+    metrics = world_metrics(run)
+    assert metrics["mean_conflict"] == pytest.approx(float(store.conflict[store.raw].mean()))
+    assert metrics["max_conflict"] == pytest.approx(float(store.conflict[store.raw].max()))

@@ -131,7 +131,7 @@ DEFINITIONS = {
         f"unobstructed, that have an unidentified object within {GLASS_RADIUS} m"
     ),
     "mean_conflict": (
-        "mean conflict K between the sonar and the LSL masses over all segments "
+        "mean conflict K between the sonar and the LSL masses over all the segments the LSL returned "
         "(a property of the evidence: equal for every rule from one pose; from a tour's later poses it "
         "depends on the map each rule has built)"
     ),
@@ -233,9 +233,9 @@ def world_metrics(
         "noise_recall": share(store.eliminated & noise, noise),
         "real_loss": share(store.eliminated & real, real),
         "glass_explained": explained,
-        "mean_conflict": float(store.conflict.mean()) if len(store) else None,
+        "mean_conflict": float(store.conflict[store.raw].mean()) if store.raw.any() else None,
         "map_error": map_error([line.p for line in lines], [line.q for line in lines], surfaces),
-        "max_conflict": float(store.conflict.max()) if len(store) else None,
+        "max_conflict": float(store.conflict[store.raw].max()) if store.raw.any() else None,
         "noise_segments": int(noise.sum()),
         "real_segments": int(real.sum()),
         "lines": len(lines),

@@ -109,11 +109,11 @@ def report(run: Run) -> dict[str, Any]:
         "scenario": run.world.name,
         "rule": run.config.rule,
         "poses": len(run.observations),
-        "lsl_segments": len(store),
+        "lsl_segments": int(store.raw.sum()),  # a line's consolidated support is no segment a sensor saw
         "noise_segments": int(noise.sum()),
         "noise_eliminated": int((store.eliminated & noise).sum()),
         "real_eliminated": int((store.eliminated & real).sum()),
-        "lines_before_merge": int((~store.eliminated).sum()),
+        "lines_before_merge": int((~store.eliminated & store.raw).sum()),
         **_map_counts(run),
         "noise_recall": share(store.eliminated & noise, noise),
         "real_loss": share(store.eliminated & real, real),
@@ -137,7 +137,7 @@ def sensors_report(run: Run) -> dict[str, Any]:
     if not run.config.extra_sensors:
         return {}
     store: SegmentStore = run.map.segments
-    raw = store.role != "support"
+    raw = store.raw
     truth_known = bool(np.isin(store.truth[raw], ("real", "noise")).all())
     phantom = store.truth[raw] == "noise"
 
@@ -164,9 +164,9 @@ def sensors_report(run: Run) -> dict[str, Any]:
 def segment_records(run: Run) -> list[dict[str, Any]]:
     """``segments.json``: every LSL (or laser) segment before fusion, with its verdict.
 
-    Ids are rows of the map's segment store; a line's consolidated support is no
-    segment a sensor saw and is left out, and the segments it absorbed keep the
-    verdict they last had. An unknown ground truth is written ``"unknown"``.
+    Ids are rows of the map's segment store; a line's consolidated support, standing or absorbed into a later
+    one, is no segment a sensor saw and is left out (:attr:`~evmap.maps.segments.SegmentStore.raw`), and the
+    segments it absorbed keep the verdict they last had. An unknown ground truth is written ``"unknown"``.
     """
     store: SegmentStore = run.map.segments
     frame = run.map.frame
@@ -185,7 +185,7 @@ def segment_records(run: Run) -> list[dict[str, Any]]:
             "eliminated": bool(store.eliminated[i]),
             **({"features": extra[i]} if features else {}),
         }
-        for i in np.flatnonzero(store.role != "support").tolist()
+        for i in np.flatnonzero(store.raw).tolist()
     ]
 
 
@@ -206,7 +206,7 @@ def _map_counts(run: Run) -> dict[str, int]:
 def _log_report(run: Run, log: LogSummary) -> dict[str, Any]:
     """``report.json`` of a run over a robot log: no ground truth, the line fit, the sonar's provenance."""
     store: SegmentStore = run.map.segments
-    raw = store.role != "support"
+    raw = store.raw
     return {
         "scenario": None,  # no simulated scenario: the contract's key, kept for the tools that read it
         "log": log.source,

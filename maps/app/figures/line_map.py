@@ -28,7 +28,7 @@ def merged_map_figure(run: Run) -> Figure:
     """
     bm = run.map
     store = bm.segments
-    kept = ~store.eliminated & (store.role != "support")  # the raw segments kept, as report.json counts them
+    kept = ~store.eliminated & store.raw  # the raw segments kept, as report.json counts them
     fig, (ax,) = new_figure(run, 1)
     draw.walls(ax, run)
     draw.segments(ax, store.p[kept], store.q[kept], color=ORANGE, lw=4.0, alpha=0.45, gid="segments")

@@ -54,7 +54,7 @@ def pose_ids(run: Run, pose: int | None) -> NDArray[np.intp]:
     """Ids (rows of the map's segment store) of the LSL segments of one pose, or of every pose (``None``): the
     raw segments, as report.json and segments.json count them, never a line's consolidated support."""
     if pose is None:
-        return np.flatnonzero(run.map.segments.role != "support")
+        return np.flatnonzero(run.map.segments.raw)
     return outcome(run, pose).segments
 
 

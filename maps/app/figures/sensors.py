@@ -36,7 +36,7 @@ def sensor_panels(run: Run) -> list[tuple[str, str, NDArray[np.str_], list[str]]
     (``"58.7 to 96.1"``, ...).
     """
     store = run.map.segments
-    raw = np.flatnonzero(store.role != "support")
+    raw = np.flatnonzero(store.raw)
     panels = []
     for name, sensor in run.config.extra_sensors.items():
         for feature, categories in sensor.declares().items():
@@ -76,7 +76,7 @@ def sensor_features_figure(run: Run) -> Figure:
     if not panels:
         raise ValueError(f"the config {run.config.name} declares no sensor (extra_sensors) whose features to draw")
     store = run.map.segments
-    raw = np.flatnonzero(store.role != "support")
+    raw = np.flatnonzero(store.raw)
     p, q, truth = store.p[raw], store.q[raw], store.truth[raw]
     phantom = truth == "noise" if truth_known(truth) else np.zeros(len(raw), dtype=bool)
     fig, axes = new_figure(run, len(panels))
