@@ -262,3 +262,9 @@ def open_npy_bytes() -> bytes:
     buffer = io.BytesIO()
     np.save(buffer, np.zeros(3))
     return buffer.getvalue()
+
+
+def test_evmap_log_takes_no_figures_as_run_does(tmp_path):
+    out = tmp_path / "out"
+    assert main(["log", str(INTEL), "--out", str(out), "--limit", "3", "--no-figures"]) == 0
+    assert not list(out.glob("fig*")) and (out / "map.pgm").exists()

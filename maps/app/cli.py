@@ -163,7 +163,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("--rule", help="combination rule, overriding the config's (a name in evidential.RULES)")
     run.add_argument("--out", default="out", help="directory for the artefacts (default: out)")
-    run.add_argument("--force", action="store_true", help="replace the directory if it is not empty")
+    run.add_argument("--force", action="store_true", help="replace --out if evmap wrote it")
     run.add_argument("--json", action="store_true", help="print report.json on standard output")
     run.add_argument(
         "--figures", choices=["png", "svg", "pdf", "none"], default="png", help="figure format (default: png)"
@@ -187,11 +187,12 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="readings of the config's declared sensors: DIR/scan-N.npz per scan used (N its number in the log)",
     )
-    log.add_argument("--force", action="store_true", help="replace the directory if it is not empty")
+    log.add_argument("--force", action="store_true", help="replace --out if evmap wrote it")
     log.add_argument("--json", action="store_true", help="print report.json on standard output")
     log.add_argument(
         "--figures", choices=["png", "svg", "pdf", "none"], default="png", help="figure format (default: png)"
     )
+    log.add_argument("--no-figures", dest="figures", action="store_const", const="none", help="same as --figures none")
     log.set_defaults(handler=log_command)
 
     add_compare_parser(commands, compare_command)
