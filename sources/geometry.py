@@ -184,7 +184,7 @@ def bearing_intervals(
     start = np.arctan2(a[:, 1], a[:, 0])
     span = np.mod(np.arctan2(b[:, 1], b[:, 0]) - start + np.pi, 2 * np.pi) - np.pi
     dist = point_segment_distances(o, p, q)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # a tiny distance: full, below
         pad = np.arcsin(np.minimum(1.0, 2 * slack / dist))
     full = ~(dist > 2 * slack) | (np.abs(span) + 2 * pad >= np.pi)
     lo = np.where(full, 0.0, start + np.minimum(span, 0) - pad)
@@ -192,7 +192,7 @@ def bearing_intervals(
     c = np.asarray(centers, dtype=float).reshape(-1, 2) - o
     r = np.asarray(radii, dtype=float).reshape(-1)
     dc = np.hypot(c[:, 0], c[:, 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         half = np.arcsin(np.minimum(1.0, (r + 2 * slack.max(initial=0.0)) / dc))
     inside = ~(dc > r + 2 * slack.max(initial=0.0))
     lo = np.concatenate([lo, np.where(inside, 0.0, np.arctan2(c[:, 1], c[:, 0]) - half)])
