@@ -162,8 +162,9 @@ def check_rule_function(name: str) -> None:
         a, b, c = p[0:1], p[1:2], p[2:3]
         two, three = combine_batch(a, b, rule=name), combine_batch(a, b, c, rule=name)
         batch = combine_batch(p[:2], p[1:], rule=name)  # rows (a, b) and (b, c) at once
-        if not np.allclose(batch[:1], two, rtol=0, atol=MASS_TOLERANCE):
-            raise ValueError(f"rule {name!r} gives {batch[0].tolist()} in a batch but {two[0].tolist()} alone")
+        for row, alone in enumerate((two, combine_batch(b, c, rule=name))):
+            if not np.allclose(batch[row], alone[0], rtol=0, atol=MASS_TOLERANCE):
+                raise ValueError(f"rule {name!r} gives {batch[row].tolist()} in a batch but {alone[0].tolist()} alone")
         claims = {  # claim: (the sources to combine, what they must give, the two sides named)
             "commutative": ((b, a), two, "a ⊕ b and b ⊕ a"),
             "associative": ((two, c), three, "(a ⊕ b) ⊕ c and a ⊕ b ⊕ c"),
