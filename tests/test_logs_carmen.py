@@ -23,7 +23,7 @@ FLASER = "FLASER 3 1.0 2.0 3.0 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0"
 
 def write(tmp_path: Path, *lines: str, name: str = "x.log") -> Path:
     path = tmp_path / name
-    path.write_text("\n".join(lines) + "\n")
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
 
 
