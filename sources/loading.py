@@ -337,6 +337,6 @@ def _describe(err: Any) -> str:
     msg = str(err["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
     if err["type"] == "extra_forbidden":
         return "unknown key"
-    if err["type"] == "missing":
-        return "required key is missing"
+    if err["type"] == "missing":  # a mapping's key, or an item of a fixed-length list (a pose's heading)
+        return "required item is missing" if isinstance(err["loc"][-1], int) else "required key is missing"
     return f"{msg} (got {shown(err.get('input'))})"

@@ -94,6 +94,13 @@ def test_bad_file_names_file_place_and_problem(name: str, where: str, what: str)
     assert "Traceback" not in message and "\n" not in message
 
 
+def test_a_pose_without_its_heading_names_the_missing_item(tmp_path: Path) -> None:
+    path = tmp_path / "no_heading.yaml"
+    path.write_text("version: 1\nname: t\nworld:\n  walls: []\nrobot: {poses: [[1, 1]]}\n")
+    with pytest.raises(InputError, match=r"no_heading.yaml: robot.poses\[0\]\[2\]: required item is missing"):
+        load_scenario(path)
+
+
 def test_missing_file_is_an_input_error(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="cannot read file"):
         load_scenario(tmp_path / "nowhere.yaml")
