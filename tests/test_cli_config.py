@@ -112,7 +112,8 @@ def test_explain_the_example_sensor_with_two_other_sources(capsys):
         ),
         (["config", "check", str(HERE / "syntax_error.yaml")], "syntax_error.yaml: line 18, column 13:"),
         (["config", "check", "/nonexistent/c.yaml"], "evmap: error: /nonexistent/c.yaml: cannot read file"),
-        (["config", "explain", "--source", "lidar", "--value", "1"], "evmap: error: unknown source 'lidar'"),
+        (["config", "explain", "--source", "lidar", "--value", "1"], "evmap: error: unknown source 'lidar' in config "),
+        (["config", "explain", "default", "--source", "lidar", "--value", "1"], "default.yaml; its sources are: "),
         (
             ["config", "explain", "--source", "lsl_length", "--value", "long"],
             "evmap: error: source 'lsl_length', feature 'length': expected numbers",

@@ -49,7 +49,7 @@ def describe_config(cfg: Config) -> str:
 def explain_value(cfg: Config, name: str, value: str) -> str:
     """What the source ``name`` gives for one feature ``value``, and what it combines to in its stages."""
     if name not in cfg.sources:
-        raise ValueError(f"unknown source {name!r}; sources are: {', '.join(cfg.sources)}")
+        raise ValueError(f"unknown source {name!r} in config {cfg.name}; its sources are: {', '.join(cfg.sources)}")
     source = cfg.sources[name]
     m = source.masses({source.feature: [value]})
     out = [
