@@ -144,22 +144,19 @@ def owned_entries(directory: Path, layout: Layout) -> tuple[list[str], list[str]
             listed = set()
         mine, others = [], []
         for rel in _walk(directory):
-            (mine if rel in listed and _artefact(rel) else others).append(rel)
+            artefact = any(_named(rel, known) for known in (RUN_LAYOUT, COMPARE_LAYOUT))
+            (mine if rel in listed and artefact else others).append(rel)
         return [*mine, MARKER], others
     if not set(layout.required) <= set(top):
         return [], top
     mine, others = [], []
     for name in top:
         entry = directory / name
-        if (
-            entry.is_file()
-            and not entry.is_symlink()
-            and (name in layout.required or any(fnmatch.fnmatch(name, p) for p in layout.patterns))
-        ):
+        if entry.is_file() and not entry.is_symlink() and _named(name, layout):
             mine.append(name)
         elif name in layout.subdirs and entry.is_dir() and not entry.is_symlink():
             inner = sorted(entry.iterdir())
-            if all(f.is_file() and not f.is_symlink() and fnmatch.fnmatch(f.name, layout.subdirs[name]) for f in inner):
+            if all(f.is_file() and not f.is_symlink() and _named(f"{name}/{f.name}", layout) for f in inner):
                 mine += [f"{name}/{f.name}" for f in inner] + [f"{name}/"]
             else:
                 others.append(name)
@@ -168,16 +165,13 @@ def owned_entries(directory: Path, layout: Layout) -> tuple[list[str], list[str]
     return mine, others
 
 
-def _artefact(rel: str) -> bool:
-    """Whether the relative path ``rel`` (``NAME``, ``SUB/NAME`` or ``SUB/``) is named as an artefact of a run,
-    a log or a comparison is (:data:`RUN_LAYOUT`, :data:`COMPARE_LAYOUT`)."""
+def _named(rel: str, layout: Layout) -> bool:
+    """Whether the relative path ``rel`` (``NAME``, ``SUB/NAME`` or ``SUB/``) is named as one of ``layout``'s
+    artefacts."""
     sub, _, name = rel.rpartition("/")
-    for layout in (RUN_LAYOUT, COMPARE_LAYOUT):
-        if not sub and (name in layout.required or any(fnmatch.fnmatch(name, p) for p in layout.patterns)):
-            return True
-        if sub in layout.subdirs and (not name or fnmatch.fnmatch(name, layout.subdirs[sub])):
-            return True
-    return False
+    if not sub:
+        return name in layout.required or any(fnmatch.fnmatch(name, p) for p in layout.patterns)
+    return sub in layout.subdirs and (not name or fnmatch.fnmatch(name, layout.subdirs[sub]))
 
 
 def write_text_atomic(path: Path, text: str) -> None:
