@@ -265,14 +265,15 @@ def evidential_grid(
     origin, shape = grid_geometry(bounds, resolution, params)
     p = np.asarray(p, dtype=float).reshape(-1, 2)
     q = np.asarray(q, dtype=float).reshape(-1, 2)
-    weight = params.occupied_mass * np.asarray(belief, dtype=float).reshape(-1)
+    belief = np.asarray(belief, dtype=float).reshape(-1)
+    weight = params.occupied_mass * belief
     free = polygon_cells(open_space, origin, resolution, shape).ravel()
     # the strongest object in each cell, as its rank among the distinct weights (rank 0: weight 0)
     values, rank = np.unique(np.concatenate([[0.0], weight]), return_inverse=True)
     occupied = np.zeros(free.size, dtype=np.intp)
     cells, seg = segment_cells(p, q, origin, resolution, shape)
     np.maximum.at(occupied, cells, rank[1:][seg])
-    free[cells[np.asarray(belief, dtype=float).reshape(-1)[seg] >= params.believed]] = False  # a believed surface
+    free[cells[belief[seg] >= params.believed]] = False  # a believed surface's cells: no free evidence
     # combine each (occupied weight, free?) pair once: pair code = 2 * rank + free
     m_free = np.zeros((2 * len(values), 4))
     m_free[1::2, _FREE] = params.free_mass

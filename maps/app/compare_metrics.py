@@ -216,6 +216,7 @@ def world_metrics(
     store = run.map.segments
     noise = store.truth == "noise"
     real = store.truth == "real"
+    conflict = store.conflict[store.raw]  # of the segments the LSL returned, no line's support
     surfaces = run.world.surfaces()
     if glass is None:
         glass = visible_glass(run.world, run.config)
@@ -233,9 +234,9 @@ def world_metrics(
         "noise_recall": share(store.eliminated & noise, noise),
         "real_loss": share(store.eliminated & real, real),
         "glass_explained": explained,
-        "mean_conflict": float(store.conflict[store.raw].mean()) if store.raw.any() else None,
+        "mean_conflict": float(conflict.mean()) if len(conflict) else None,
         "map_error": map_error([line.p for line in lines], [line.q for line in lines], surfaces),
-        "max_conflict": float(store.conflict[store.raw].max()) if store.raw.any() else None,
+        "max_conflict": float(conflict.max()) if len(conflict) else None,
         "noise_segments": int(noise.sum()),
         "real_segments": int(real.sum()),
         "lines": len(lines),

@@ -105,15 +105,16 @@ def report(run: Run) -> dict[str, Any]:
     store: SegmentStore = run.map.segments
     noise = store.truth == "noise"
     real = store.truth == "real"
+    raw = store.raw  # a line's consolidated support is no segment a sensor saw
     return {
         "scenario": run.world.name,
         "rule": run.config.rule,
         "poses": len(run.observations),
-        "lsl_segments": int(store.raw.sum()),  # a line's consolidated support is no segment a sensor saw
+        "lsl_segments": int(raw.sum()),
         "noise_segments": int(noise.sum()),
         "noise_eliminated": int((store.eliminated & noise).sum()),
         "real_eliminated": int((store.eliminated & real).sum()),
-        "lines_before_merge": int((~store.eliminated & store.raw).sum()),
+        "lines_before_merge": int((~store.eliminated & raw).sum()),
         **_map_counts(run),
         "noise_recall": share(store.eliminated & noise, noise),
         "real_loss": share(store.eliminated & real, real),
