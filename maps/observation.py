@@ -198,5 +198,4 @@ def observation_from_arrays(
             raise ScanError(f"sonar: angles {angles.shape} and ranges {ranges.shape} must have the same shape")
         scan = SonarScan.from_readings(angles, ranges, config.sensors.sonar, pose=robot)
     features = features_from_arrays(config.extra_sensors, sensors or {}, lsl.p, lsl.q)
-    given = None if rays is None else np.asarray(rays, dtype=float)
-    return Observation(pose_index, scan, lsl, features, rays=given, robot_pose=robot, all_returns=bool(all_returns))
+    return Observation(pose_index, scan, lsl, features, rays=rays, robot_pose=robot, all_returns=bool(all_returns))
