@@ -109,8 +109,15 @@ def test_force_refuses_a_directory_evmap_did_not_make(capsys, tmp_path, written)
     assert "results.csv" in capsys.readouterr().err and (out / "results.csv").read_text() == "mine"
 
 
-@pytest.mark.parametrize("after", [4, 8])  # while the workers start, and while they compute
-def test_ctrl_c_stops_the_cluster_cleanly_with_one_line_and_exit_130(tmp_path, after):
+@pytest.mark.parametrize(
+    ("after", "signum", "status", "how"),
+    [
+        (4, signal.SIGINT, 130, "interrupted"),  # while the workers start
+        (8, signal.SIGINT, 130, "interrupted"),  # while they compute
+        (8, signal.SIGTERM, 143, "terminated"),
+    ],
+)
+def test_a_signal_stops_the_cluster_cleanly_with_one_line(tmp_path, after, signum, status, how):
     out = tmp_path / "out"
     script = Path(sys.executable).parent / "evmap"
     proc = subprocess.Popen(
@@ -120,10 +127,13 @@ def test_ctrl_c_stops_the_cluster_cleanly_with_one_line_and_exit_130(tmp_path, a
         start_new_session=True,  # its own process group, as a terminal's foreground job
     )
     time.sleep(after)
-    os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C does: the whole group
+    if signum == signal.SIGINT:
+        os.killpg(proc.pid, signum)  # what Ctrl-C does: the whole group
+    else:
+        proc.send_signal(signum)  # what kill does: the command alone, which shuts its workers down
     _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130, err
-    assert err.rstrip().splitlines()[-1] == f"evmap: interrupted; nothing written to {out}"
+    assert proc.returncode == status, err
+    assert err.rstrip().splitlines()[-1] == f"evmap: {how}; nothing written to {out}"
     assert "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
 

@@ -22,6 +22,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from evmap.maps.app.cli import Terminated
 from evmap.maps.app.compare_runner import check_rules, check_run, iter_results
 from evmap.maps.app.compare_tables import (
     WORLD_COLUMNS,
@@ -60,11 +61,11 @@ def write_comparison(comparison: Comparison, out: str | Path) -> None:
 def compare_command(args: argparse.Namespace) -> int:
     """``evmap compare``: claim ``--out``, stream the comparison into it, print the summary table.
 
-    Returns 0; 130 after Ctrl-C (the workers shut down, nothing written). Raises
+    Returns 0; 130 after Ctrl-C, 143 after SIGTERM (the workers shut down, nothing written). Raises
     ValueError (``evmap: error: ...``, exit 2) on bad input or output, before the work.
     """
     rules = check_rules(args.rules)
-    configs = check_run(args.worlds, args.seed, args.workers, args.configs or args.config)
+    configs = check_run(args.worlds, args.seed, args.workers, args.configs or args.config, args.scheduler)
     space = MIN_FREE_BYTES + BYTES_PER_WORLD * args.worlds
     try:
         with claim_output(args.out, force=args.force, layout=COMPARE_LAYOUT, free_bytes=space) as staging:
@@ -86,9 +87,10 @@ def compare_command(args: argparse.Namespace) -> int:
 
             write_summary(comparison, staging.path)
             write_plots(comparison, staging.path)
-    except KeyboardInterrupt:
-        print(f"evmap: interrupted; nothing written to {args.out}", file=sys.stderr)
-        return 130
+    except (KeyboardInterrupt, Terminated) as stop:
+        how, status = ("terminated", 143) if isinstance(stop, Terminated) else ("interrupted", 130)
+        print(f"evmap: {how}; nothing written to {args.out}", file=sys.stderr)
+        return status
     print(summary_markdown(comparison), end="")
     print(f"written to {args.out}", file=sys.stderr)
     return 0

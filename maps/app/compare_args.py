@@ -58,7 +58,12 @@ def add_compare_parser(
         help="address of a Dask scheduler, or synchronous|threads|processes (default: a local cluster, "
         f"in this process below {SYNCHRONOUS_BELOW} worlds)",
     )
-    compare.add_argument("--workers", type=int, help="processes of the local cluster (default: one per CPU)")
+    compare.add_argument(
+        "--workers",
+        type=int,
+        help="processes of the local cluster, or threads|processes of a pool (default: one per CPU); "
+        "refused with synchronous or a scheduler's address",
+    )
     compare.add_argument("--quiet", action="store_true", help="no progress bar")
     compare.set_defaults(handler=handler)
     return compare

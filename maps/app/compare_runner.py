@@ -172,10 +172,13 @@ def check_rules(rules: Sequence[str] | str) -> tuple[str, ...]:
     return tuple(names)
 
 
-def check_run(worlds: int, seed: int, workers: int | None, configs: Sequence[str] | str) -> tuple[str, ...]:
+def check_run(
+    worlds: int, seed: int, workers: int | None, configs: Sequence[str] | str, scheduler: str | None = None
+) -> tuple[str, ...]:
     """Check the numbers of a comparison and build its configs (a bad one fails here, before any work).
 
     ``configs``: names, or the text of ``--configs`` (:func:`~evmap.maps.app.compare_configs.config_names`).
+    ``workers`` is refused with a scheduler it has no say in (``synchronous``, a scheduler's address).
     Returns the config names.
     """
     if not isinstance(worlds, int) or not 1 <= worlds <= MAX_WORLDS:
@@ -184,6 +187,9 @@ def check_run(worlds: int, seed: int, workers: int | None, configs: Sequence[str
         raise ValueError(f"seed must be an integer with 0 <= seed < 2**63, got {seed!r}")
     if workers is not None and (not isinstance(workers, int) or workers < 1):
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    if workers is not None and scheduler not in (None, "threads", "processes"):
+        where = "the worlds run in this process" if scheduler == "synchronous" else "the cluster has its own workers"
+        raise ValueError(f"workers {workers} has no effect with scheduler {scheduler}: {where}")
     return config_names(configs if isinstance(configs, str) else ",".join(map(str, configs)))
 
 
@@ -219,7 +225,7 @@ def iter_results(
         within :data:`~evmap.maps.app.compare_executors.CONNECT_TIMEOUT` seconds, before any world is computed.
     """
     rules = check_rules(rules)
-    names = check_run(worlds, seed, workers, configs)
+    names = check_run(worlds, seed, workers, configs, scheduler)
     from tqdm import tqdm
 
     bar = tqdm(total=worlds, desc="compare", unit="world", file=sys.stderr, disable=not progress, mininterval=0.5)
@@ -265,7 +271,9 @@ def run_comparison(rules: Sequence[str], worlds: int, seed: int, **options: Any)
     ([('default', 'dempster'), ('default', 'yager')], 4, ['world-0000', 'world-0001'])
     """
     rules = check_rules(rules)
-    configs = check_run(worlds, seed, options.get("workers"), options.pop("configs", DEFAULT_CONFIGS))
+    configs = check_run(
+        worlds, seed, options.get("workers"), options.pop("configs", DEFAULT_CONFIGS), options.get("scheduler")
+    )
     tally, rows, scenarios = Tally(configs, rules), [], {}
     for result in iter_results(rules, worlds, seed, configs=configs, **options):
         tally.add(result)
