@@ -3,7 +3,8 @@
 Each command runs in a fresh process, several times; the medians of wall and CPU time
 (user + system, of the process and its children) are printed with what a run spends
 computing (``seconds.total`` of its report) and so what the rest (the interpreter,
-imports, files) costs, and the load average, since the machine may be shared. Targets:
+imports, files) costs, beside the import of the libraries every run needs (the floor evmap cannot go below
+without dropping one), and the load average, since the machine may be shared. Targets:
 ``--help`` well under a second, the small run under 0.5 s, an unreachable Dask
 scheduler refused within a few seconds.
 
@@ -31,6 +32,8 @@ import time
 from pathlib import Path
 
 EVMAP = str(Path(sys.executable).with_name("evmap"))
+LIBRARIES = "numpy, networkx, shapely, pydantic, yaml"
+"""What every run imports besides evmap: the floor of its wall time that evmap's own code does not set."""
 
 
 def timed(command: list[str], env: dict[str, str], check: bool = True) -> tuple[float, float, str, int]:
@@ -60,6 +63,7 @@ def main() -> None:
     timed(run, env)  # the warm-up: writes the bytecode cache
     load = os.getloadavg()[0]
     bare = [timed([sys.executable, "-c", "pass"], env)[:2] for _ in range(args.runs)]
+    floor = [timed([sys.executable, "-c", f"import {LIBRARIES}"], env)[:2] for _ in range(args.runs)]
     helps = [timed([EVMAP, "--help"], env)[:2] for _ in range(args.runs)]
     runs, computes = [], []
     for _ in range(args.runs):
@@ -74,12 +78,15 @@ def main() -> None:
         f"load average {load:.2f} on {os.cpu_count()} CPUs"
     )
     print(f"  python -c pass                      {medians(bare)}")
+    print(f"  python -c 'import {LIBRARIES}'\n                                      {medians(floor)}")
     print(f"  evmap --help                        {medians(helps)}")
     compute = statistics.median(computes)
     wall = statistics.median(s for s, _ in runs)
     print(
         f"  evmap run --figures none (corridor) {medians(runs)}   computing {compute:.3f} s, the rest {wall - compute:.3f} s"
     )
+    own = wall - compute - statistics.median(s for s, _ in floor)
+    print(f"    beyond the libraries' imports and the computing: {own:.3f} s (evmap's own modules, files, exit)")
     print(f"  evmap compare, unreachable scheduler: exit {status} after {refused:.1f} s (one run)")
     print(f"load average at the end {os.getloadavg()[0]:.2f}")
 
