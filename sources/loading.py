@@ -5,7 +5,9 @@ Every configuration and scenario file enters the product through :func:`read_doc
 :data:`MAX_FILE_BYTES` bytes (at most that many plus one are read, so ``/dev/zero`` or a
 FIFO costs nothing); the YAML is parsed with a safe loader (libyaml's ``CSafeLoader``
 where installed, else PyYAML's ``SafeLoader``: no object-constructing tags, duplicate
-keys refused, standard merge keys ``<<`` supported, ``1e8`` a number as YAML 1.2 has it), and the composed document is
+keys refused, standard merge keys ``<<`` supported, plain scalars read as YAML 1.2's core schema has them:
+``1e8`` a number, ``045`` forty-five, ``0o17`` octal, ``yes``, ``8_0``, ``0b10``, ``1:20`` and dates strings), and the
+composed document is
 measured before anything is constructed: at most :data:`MAX_DEPTH` levels of nesting
 and :data:`MAX_NODES` nodes once aliases are expanded (an alias bomb is refused in
 milliseconds), no alias inside the node it names. A :class:`Document` then validates
@@ -18,6 +20,8 @@ names the file, the key path (``world.walls[3].points``), what is wrong and the 
 {'a': [1, 2], 'b': {'c': 1, 'd': [1, 2]}}
 >>> parse_document("[1e8, 1e-9, 1.5e+3, 12, e5, 1e]", "n.yaml").data
 [100000000.0, 1e-09, 1500.0, 12, 'e5', '1e']
+>>> parse_document("[045, -07, 0o17, 0x1F, .5, -.inf, 8_0, 0b10, 1:20, yes, True, 2024-01-01, ~]", "c.yaml").data
+[45, -7, 15, 31, 0.5, -inf, '8_0', '0b10', '1:20', 'yes', True, '2024-01-01', None]
 >>> doc.line(("b", "d"))
 2
 >>> try:
@@ -111,12 +115,30 @@ class _StrictLoader(_BaseLoader):  # type: ignore[misc, valid-type]
         return super().construct_mapping(node, deep=deep)
 
 
+def _construct_int(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> int:
+    """An integer of YAML 1.2's core schema: decimal (``010`` is ten), ``0o`` octal or ``0x`` hexadecimal."""
+    text = loader.construct_scalar(node)
+    base = {"0o": 8, "0x": 16}.get(text[:2], 10)
+    return int(text[2:] if base != 10 else text, base)
+
+
+_YAML_1_1_ONLY = {f"tag:yaml.org,2002:{t}" for t in ("bool", "int", "float", "timestamp", "value")}
+_StrictLoader.yaml_implicit_resolvers = {  # YAML 1.1's plain scalars that YAML 1.2 reads otherwise: replaced below
+    first: [(tag, regexp) for tag, regexp in resolvers if tag not in _YAML_1_1_ONLY]
+    for first, resolvers in _BaseLoader.yaml_implicit_resolvers.items()
+}
+for _tag, _pattern, _first in (  # YAML 1.2's core schema; an integer before a float, which would match it too
+    ("bool", r"true|True|TRUE|false|False|FALSE", "tTfF"),
+    ("int", r"[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+", "-+0123456789"),
+    (
+        "float",
+        r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)",
+        "-+.0123456789",
+    ),
+):
+    _StrictLoader.add_implicit_resolver(f"tag:yaml.org,2002:{_tag}", re.compile(f"^(?:{_pattern})$"), list(_first))
 _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _StrictLoader.construct_mapping)
-_StrictLoader.add_implicit_resolver(  # YAML 1.2's exponents: 1e8 and 1e-9 are numbers, as 1.0e+8 is in YAML 1.1
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
-    list("-+.0123456789"),
-)
+_StrictLoader.add_constructor("tag:yaml.org,2002:int", _construct_int)
 
 
 def key_path(loc: tuple[str | int, ...]) -> str:

@@ -101,6 +101,17 @@ def test_a_pose_without_its_heading_names_the_missing_item(tmp_path: Path) -> No
         load_scenario(path)
 
 
+def test_numbers_are_read_as_yaml_1_2_has_them() -> None:
+    """YAML 1.1 (PyYAML's default) read a zero-padded heading ``045`` as octal (37 degrees), ``8_0`` as 80 and
+    ``yes`` as true, and the run went on; YAML 1.2 reads 45 and keeps the others strings, refused here."""
+    s = parse_scenario("version: 1\nname: t\nworld: {walls: []}\nrobot: {poses: [[010, 1.5, 045]]}\n", "p.yaml")
+    assert tuple(s.robot.poses[0]) == (10.0, 1.5, 45.0)  # degrees, as written
+    for text, where in (("[8_0, 0, 0]", r"robot.poses\[0\]\[0\]"), ("[0, 0b1, 0]", r"robot.poses\[0\]\[1\]")):
+        with pytest.raises(InputError, match=rf"p.yaml: {where}: .*valid number"):
+            parse_scenario(f"version: 1\nname: t\nworld: {{walls: []}}\nrobot: {{poses: [{text}]}}\n", "p.yaml")
+    assert parse_scenario("version: 1\nname: yes\nworld: {walls: []}\nrobot: {poses: [[0, 0, 0]]}\n", "y").name == "yes"
+
+
 def test_missing_file_is_an_input_error(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="cannot read file"):
         load_scenario(tmp_path / "nowhere.yaml")
