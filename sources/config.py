@@ -63,11 +63,14 @@ PACKAGED_CONFIGS = ("paper", "default")
 def config_path(name: str | Path) -> Path:
     """The file of a config given by path, or by the name of a packaged config (:data:`PACKAGED_CONFIGS`).
 
+    A packaged config's name (a string) is that config, whatever the current directory holds (an output
+    directory named ``paper``, say); a file of that name is ``./paper``.
+
     >>> config_path("paper").name, config_path("configs/paper.yaml").as_posix()
     ('paper.yaml', 'configs/paper.yaml')
     """
     path = Path(name)
-    if isinstance(name, str) and name in PACKAGED_CONFIGS and not path.exists():
+    if isinstance(name, str) and name in PACKAGED_CONFIGS:
         return configs.path(f"{name}.yaml")
     if not path.exists() and not path.suffix:
         raise InputError(

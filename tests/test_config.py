@@ -42,6 +42,18 @@ def test_default_config_is_the_packaged_paper_yaml():
     assert cfg.rule == "dempster"
 
 
+def test_a_packaged_name_is_the_packaged_config_whatever_the_directory_holds(tmp_path, monkeypatch):
+    """An output directory named after the config (``--out paper``) made ``--config paper`` fail, and a file
+    named ``default`` was read in place of the packaged config; ``./paper`` names a file."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "paper").mkdir()
+    (tmp_path / "default").write_text("not: a config\n")
+    assert load_config("paper").name == load_config(configs.path("paper.yaml")).name
+    assert load_config("default").stages == load_config(configs.path("default.yaml")).stages
+    with pytest.raises(InputError, match="default"):
+        load_config("./default")
+
+
 def test_paper_table_1():
     source = load_config().sources["sonar_open_space"]
     m = source.masses({"relation": np.array(["outside", "partly_inside", "inside"])})

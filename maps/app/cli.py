@@ -29,7 +29,8 @@
     with where each comes from, and the refused ones.
 
 ``--config`` takes a file or a packaged config by name: ``default`` (what run, log
-and compare use when not told) or ``paper`` (the paper's method); ``config check``
+and compare use when not told) or ``paper`` (the paper's method; a file named so is
+``./paper``); ``config check``
 and ``config explain`` read ``paper`` when given no ``FILE``. Normal output goes to
 standard output. A mistake in the input (a bad file, an unknown source, a value
 a source cannot judge) prints ``evmap: error: <message>`` on standard error and
