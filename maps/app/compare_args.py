@@ -56,7 +56,7 @@ def add_compare_parser(
     compare.add_argument(
         "--scheduler",
         help="address of a Dask scheduler, or synchronous|threads|processes (default: a local cluster, "
-        f"in this process below {SYNCHRONOUS_BELOW} worlds)",
+        f"in this process below {SYNCHRONOUS_BELOW} worlds unless --workers is given)",
     )
     compare.add_argument(
         "--workers",

@@ -9,8 +9,8 @@ world order (:func:`iter_results`): memory is bounded whatever the number of
 worlds, and the numbers are the same whatever the scheduler.
 
 Schedulers: ``None`` is a local Dask cluster of ``workers`` processes (default:
-one per CPU), except below :data:`SYNCHRONOUS_BELOW` worlds, where starting it
-costs more than it saves and the worlds run in this process; ``synchronous``
+one per CPU), except below :data:`SYNCHRONOUS_BELOW` worlds with ``workers`` not
+given, where starting it costs more than it saves and the worlds run in this process; ``synchronous``
 runs them here; ``threads`` and ``processes`` use a local pool; anything else is
 the address of a Dask scheduler.
 """
@@ -230,7 +230,7 @@ def iter_results(
 
     bar = tqdm(total=worlds, desc="compare", unit="world", file=sys.stderr, disable=not progress, mininterval=0.5)
     with bar:
-        if scheduler == "synchronous" or (scheduler is None and worlds < SYNCHRONOUS_BELOW):
+        if scheduler == "synchronous" or (scheduler is None and workers is None and worlds < SYNCHRONOUS_BELOW):
             for i in range(worlds):
                 yield compare_world(i, seed, rules, names, params)
                 bar.update(1)
