@@ -140,6 +140,17 @@ def test_a_beam_spacing_no_laser_has_is_refused(tmp_path: Path) -> None:
         list(read_carmen(path))
 
 
+def test_beam_spacing_and_field_of_view_params_that_disagree_are_refused(tmp_path: Path) -> None:
+    """Three beams 1 deg apart span 2 deg, not the 180 deg laser_front_laser_fov says (the resolution won,
+    silently: a 361-beam scan over 180 deg was drawn over 360 deg); one step apart is a layout's rounding."""
+    fov = "PARAM laser_front_laser_fov 180 h 0"
+    path = write(tmp_path, "PARAM laser_front_laser_resolution 1.0 h 0", fov, FLASER)
+    with pytest.raises(LogError, match=r"x.log:3: FLASER with 3 beams: PARAM laser_front_laser_resolution 1 deg"):
+        list(read_carmen(path))
+    path = write(tmp_path, "PARAM laser_front_laser_resolution 1.0 h 0", "PARAM laser_front_laser_fov 3 h 0", FLASER)
+    assert np.degrees(np.ptp(next(iter(read_carmen(path))).scan.angles)) == pytest.approx(2.0)
+
+
 def test_a_laser_offset_that_puts_the_robot_beyond_any_map_is_refused(tmp_path: Path) -> None:
     path = write(tmp_path, "PARAM robot_frontlaser_offset 1e300 h 0", FLASER)
     with pytest.raises(LogError, match=r"x.log:2: robot pose \(robot_frontlaser_offset behind\) \(-1e\+300"):

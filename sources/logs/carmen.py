@@ -10,8 +10,8 @@ One message per line, ``NAME fields... ipc_timestamp ipc_hostname logger_timesta
   beams are spread evenly, centred on the laser axis, over ``fov_deg`` if given,
   else ``(n - 1) * laser_front_laser_resolution`` (PARAM, deg) if the log has
   it, else ``laser_front_laser_fov`` (PARAM, deg), else 180 deg, the end beams on
-  the edges. The maximum range is ``max_range`` if given, else
-  ``robot_front_laser_max`` (PARAM, m), else :data:`DEFAULT_MAX_RANGE`.
+  the edges; both PARAMs, disagreeing by more than a beam's step, are an error.
+  The maximum range is ``max_range`` if given, else ``robot_front_laser_max`` (PARAM, m), else :data:`DEFAULT_MAX_RANGE`.
 - ``ROBOTLASER1 type start fov resolution max_range accuracy remission_mode n
   r_1..r_n m e_1..e_m laser_x laser_y laser_theta robot_x robot_y robot_theta
   tv rv forward_safety side_safety turn_axis``: the line states its layout
@@ -260,6 +260,12 @@ class _State:
             if o.fov_deg is not None:
                 fov = o.fov_deg
             elif resolution is not None:
+                if fov is not None and n > 1 and abs(resolution * (n - 1) - fov) > resolution * 1.01 + 1e-6:
+                    raise LogError(
+                        f"{where}: FLASER with {n} beams: PARAM laser_front_laser_resolution {resolution:g} deg "
+                        f"spreads them over {resolution * (n - 1):g} deg, PARAM laser_front_laser_fov says {fov:g} "
+                        "deg: one of the two is wrong (fix it, or give CarmenOptions.fov_deg)"
+                    )
                 fov = resolution * (n - 1)
             try:
                 self.layouts[n] = LaserGeometry.spread(n, np.radians(fov or DEFAULT_FOV_DEG), max_range, o.unit)
