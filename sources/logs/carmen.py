@@ -11,7 +11,8 @@ One message per line, ``NAME fields... ipc_timestamp ipc_hostname logger_timesta
   else ``(n - 1) * laser_front_laser_resolution`` (PARAM, deg) if the log has
   it, else ``laser_front_laser_fov`` (PARAM, deg), else 180 deg, the end beams on
   the edges; both PARAMs, disagreeing by more than a beam's step, are an error.
-  The maximum range is ``max_range`` if given, else ``robot_front_laser_max`` (PARAM, m), else :data:`DEFAULT_MAX_RANGE`.
+  The maximum range is ``max_range`` if given, else ``robot_front_laser_max``
+  (PARAM, m), else :data:`DEFAULT_MAX_RANGE`.
 - ``ROBOTLASER1 type start fov resolution max_range accuracy remission_mode n
   r_1..r_n m e_1..e_m laser_x laser_y laser_theta robot_x robot_y robot_theta
   tv rv forward_safety side_safety turn_axis``: the line states its layout
