@@ -49,7 +49,9 @@ class ContourPropertySpec(SensorSpec):
     match_distance: float = Field(0.03, gt=0, le=1, description="points this close to a segment are its (m)")
     missing: Finite = Field(0.0, description="the feature of a segment without points")
     spacing: float = Field(0.02, ge=0.001, le=1, description="between two simulated points of a segment (m)")
-    values: dict[Material, tuple[Finite, Annotated[float, Field(ge=0, allow_inf_nan=False)]]] = Field(
+    values: dict[
+        Material, Annotated[tuple[Finite, Annotated[float, Field(ge=0, allow_inf_nan=False)]], Strict(False)]
+    ] = Field(
         default_factory=dict, max_length=100, description="simulation: material -> [mean, std] of a point's value"
     )
 

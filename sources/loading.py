@@ -266,6 +266,8 @@ def validate(
     ``at`` is the key path of ``data`` inside its file, prefixed to the paths in errors.
     At most :data:`MAX_REPORTED_PROBLEMS` problems are listed.
     """
+    if data is None and not at:
+        raise InputError(f"{name}: the file is empty (or holds only comments): nothing to read")
     try:
         return model.model_validate(data)
     except pydantic.ValidationError as exc:
@@ -305,6 +307,8 @@ def parse_document(text: str, name: str) -> Document:
         problem = exc.problem or exc.context
         if problem and "maximum nesting depth" in problem:  # libyaml's own limit (1000), met before ours is measured
             problem = f"nesting deeper than the limit of {MAX_DEPTH}"
+        if mark and text.splitlines()[mark.line : mark.line + 1] and "\t" in text.splitlines()[mark.line]:
+            problem = f"{problem} (a tab: YAML indents with spaces only)"
         raise InputError(f"{name}: {where}: {problem}") from None
     except yaml.YAMLError as exc:
         raise InputError(f"{name}: {exc}") from None
@@ -361,4 +365,6 @@ def _describe(err: Any) -> str:
         return "unknown key"
     if err["type"] == "missing":  # a mapping's key, or an item of a fixed-length list (a pose's heading)
         return "required item is missing" if isinstance(err["loc"][-1], int) else "required key is missing"
+    if isinstance(err.get("input"), dict):  # a section's own check: its line says where, its text is long
+        return msg
     return f"{msg} (got {shown(err.get('input'))})"

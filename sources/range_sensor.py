@@ -109,6 +109,25 @@ class RangeSpec(SensorSpec):
             )
         return self
 
+    @model_validator(mode="after")
+    def _consistent(self) -> RangeSpec:
+        """Refuse crossed relation fractions (as ``noise:`` does) and a material both echoing and absorbing.
+
+        >>> RangeSpec(kind="range", echo=["wall", "glass"], absorb=["glass"])
+        Traceback (most recent call last):
+        ...
+        pydantic_core._pydantic_core.ValidationError: 1 validation error for RangeSpec
+          Value error, material 'glass' is in both echo and absorb: say which it does [...]
+        ...
+        """
+        if self.outside_fraction >= self.inside_fraction:
+            raise ValueError(
+                f"outside_fraction ({self.outside_fraction}) must be below inside_fraction ({self.inside_fraction})"
+            )
+        if both := sorted(set(self.echo) & set(self.absorb)):
+            raise ValueError(f"material {both[0]!r} is in both echo and absorb: say which it does")
+        return self
+
     def beam_offsets(self) -> NDArray[np.float64]:
         """(B,) bearing of every reading from the heading (rad): beams times sweep steps, in reading order."""
         spacing = self.spacing_deg if self.spacing_deg is not None else 360.0 / self.beams

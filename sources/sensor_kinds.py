@@ -68,7 +68,9 @@ FeatureFunction = Callable[[Any, Mapping[str, NDArray[Any]], NDArray[np.float64]
 class SensorSpec(BaseModel):
     """The YAML keys every declared sensor has: its kind and a free description."""
 
-    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
+    # strict: ``beams: true`` was one beam, ``max_range: "10"`` ten metres; a pair of numbers is written as a
+    # list, so a kind's pair types take ``Strict(False)`` on the tuple (its numbers stay strict)
 
     kind: Text
     description: Text = Field("", max_length=2000, description="free text, shown by `evmap sources`")

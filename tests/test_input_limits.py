@@ -357,3 +357,14 @@ robot: {poses: [[0, 0, 0]]}
     with pytest.raises(ValueError, match=rf"into 1000000 patches, more than the limit of {MAX_PATCHES}"):
         observe(world, 0, fine)
     assert observe(world, 0, config).features  # the example's 0.2 m patches: 50,000
+
+
+def test_an_empty_file_and_a_tab_are_named_as_such(tmp_path: Path) -> None:
+    """An empty config said "Input should be a valid dictionary or instance of ConfigFile (got None)"; a tab
+    "found character that cannot start any token"."""
+    empty = tmp_path / "empty.yaml"
+    empty.write_text("# nothing yet\n")
+    with pytest.raises(InputError, match=r"empty.yaml: the file is empty \(or holds only comments\)"):
+        load_config(empty)
+    with pytest.raises(InputError, match=r"t.yaml: line 2, column 1: .* \(a tab: YAML indents with spaces only\)"):
+        parse_document("a:\n\tb: 1\n", "t.yaml")

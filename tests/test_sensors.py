@@ -144,6 +144,25 @@ def test_bad_readings_and_sections_are_refused_by_name():
         config_from_data(data, "x")
 
 
+@pytest.mark.parametrize(
+    ("section", "where"),
+    [
+        ({"kind": "range", "beams": True}, r"ir\.beams: Input should be a valid integer \(got True\)"),  # was 1 beam
+        ({"kind": "range", "max_range": "10"}, r"ir\.max_range: Input should be a valid number \(got '10'\)"),
+        ({"kind": "range", "inside_fraction": 0.1, "outside_fraction": 0.9}, r"ir: outside_fraction \(0\.9\) must"),
+        ({"kind": "range", "echo": ["wall"], "absorb": ["wall"]}, r"ir: material 'wall' is in both echo and absorb"),
+        ({"kind": "detector", "materials": ["wall"], "detection": [["0", 0.9]]}, r"ir\.detection\[0\]\[0\]: Input"),
+        ({"kind": "detector", "materials": ["wall"], "detection": [[1, 0.9], [0, 0.8]]}, r"ir\.detection: ranges"),
+    ],
+)
+def test_a_sensor_section_is_read_strictly_and_its_errors_name_the_key(section, where):
+    """A bool or a string as a number was taken (``beams: true``: one beam), crossed fractions and a material
+    both echoing and absorbing passed, and a detector's table errors named the section, not the table."""
+    with pytest.raises(InputError, match=rf"extra_sensors\.{where}"):
+        with_sensors({"ir": section})
+    assert with_sensors({"ir": {"kind": "detector", "materials": ["wall"], "detection": [[0, 1], [2, 0.5]]}})
+
+
 def test_builtin_kinds_are_registered_once():
     assert {"range", "detector", "contour_property"} <= set(SENSOR_KINDS)
 
