@@ -160,3 +160,18 @@ def test_the_contract_lists_every_column_of_the_comparisons_tables():
     section = contract[contract.index("## Comparisons") :]
     for column in {*WORLD_COLUMNS, *SUMMARY_COLUMNS} - {c for c in SUMMARY_COLUMNS if c.endswith(("_lo", "_hi"))}:
         assert f"`{column}`" in section, column
+
+
+def test_a_config_whose_source_reads_a_feature_no_sensor_computes_is_refused_by_file_and_key(tmp_path):
+    """`evmap run` refused it by file, key path and line; compare failed later with neither."""
+    import yaml
+
+    from evmap import configs
+    from evmap.sources.loading import InputError
+
+    data = load_config(configs.path("examples/infrared.yaml")).to_data()
+    data["sources"]["infrared"]["feature"] = "ir_returns"  # a typo
+    path = tmp_path / "typo.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(InputError, match=rf"{path}: sources\.infrared\.feature: reads feature 'ir_returns'"):
+        resolve_config(str(path))

@@ -8,6 +8,7 @@ from typing import Literal
 
 import numpy as np
 import pytest
+import yaml
 
 from evmap import configs
 from evmap.maps import new_map
@@ -355,3 +356,16 @@ def test_a_sensor_kind_that_fails_the_sensor_checks_is_refused_at_registration_b
     with pytest.raises(ValueError, match=r"feature 'x_detection' of segment 1 is 'detected' alone but 'missed'"):
         register_sensor_kind(_kind_with(batch_only, "batchy"))
     assert not {"flaky", "wrong", "batchy"} & set(SENSOR_KINDS)
+
+
+def test_config_check_warns_of_a_source_in_no_stage(tmp_path, capsys):
+    """Defined and never combined, a source took no part in runs, and `config check` said "valid" alone."""
+    data = load_config(configs.path("examples/infrared.yaml")).to_data()
+    data["stages"] = {stage: [n for n in names if n != "infrared"] for stage, names in data["stages"].items()}
+    path = tmp_path / "unused.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["config", "check", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert f"warning: {path}: sources.infrared: in no stage, so it takes no part in a run" in out
+    assert main(["config", "check", str(configs.path("examples/infrared.yaml"))]) == 0
+    assert "in no stage" not in capsys.readouterr().out

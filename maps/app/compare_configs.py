@@ -26,7 +26,7 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
-from evmap.sources.config import config_from_data, load_config
+from evmap.sources.config import check_simulated_run, config_from_data, load_config
 from evmap.sources.config_model import Config
 
 __all__ = ["ABLATION", "NEW_SOURCES", "config_names", "resolve_config", "sensing_key"]
@@ -65,12 +65,18 @@ def resolve_config(name: str) -> Config:
     Raises
     ------
     evmap.sources.loading.InputError
-        naming the file and key path of a bad config file.
+        naming the file and key path of a bad config file, or of a source that reads a feature no sensor
+        computes (:func:`~evmap.sources.config.check_simulated_run`).
     ValueError
         naming a source the default config does not have.
     """
-    if Path(name).exists() or "+" not in name:
-        return load_config(name)
+    config = load_config(name) if Path(name).exists() or "+" not in name else _with_sources(name)
+    check_simulated_run(config)  # the worlds are simulated: a source reading a feature none brings fails here
+    return config
+
+
+def _with_sources(name: str) -> Config:
+    """``BASE+SOURCE+...``: the config BASE with those sources of the default config added to their stages."""
     base, *added = name.split("+")
     data = load_config(base).to_data()
     default = load_config("default").to_data()

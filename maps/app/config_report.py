@@ -21,7 +21,13 @@ MAX_EXPLAIN_ROWS = 1000
 
 def describe_config(cfg: Config) -> str:
     """The config as understood: frames, sources with their masses at example values, stages, parameters."""
-    out = [f"{cfg.name}: valid", *[f"warning: {w}" for w in cfg.warnings], f"rule: {cfg.rule}", ""]
+    combined = {n for names in cfg.stages.values() for n in names}
+    unused = [
+        f"{cfg.name}: sources.{n}: in no stage, so it takes no part in a run (list it under stages)"
+        for n in cfg.sources
+        if n not in combined
+    ]
+    out = [f"{cfg.name}: valid", *[f"warning: {w}" for w in (*cfg.warnings, *unused)], f"rule: {cfg.rule}", ""]
     for name, frame in cfg.frames.items():
         role = " (the map's frame)" if name == cfg.frame_name else ""
         out.append(f"frame {name}{role}: {', '.join(frame.elements)}")
