@@ -287,11 +287,13 @@ def build_table(name: str, spec: TableSpec, frame: Frame, focal: FocalResolver) 
         if category in seen:
             raise SpecError(("categories", i), f"category {category!r} is listed twice")
         seen.add(category)
-        if category not in spec.table:
-            raise SpecError(("table",), f"category {category!r} is missing from the table")
-    for category in spec.table:
-        if category not in seen:
-            raise SpecError(("table", category), f"category {category!r} is not in `categories`")
+    missing = [c for c in spec.categories if c not in spec.table]
+    extra = [c for c in spec.table if c not in seen]
+    if extra:  # at the row's own line; a misspelt row is one of the missing categories
+        hint = f": is it {missing[0]!r}, which the table lacks?" if len(missing) == 1 else ""
+        raise SpecError(("table", extra[0]), f"category {extra[0]!r} is not in `categories`{hint}")
+    if missing:
+        raise SpecError(("table",), f"category {missing[0]!r} is missing from the table")
     rows = np.array([mass_row(spec.table[c], frame, focal, ("table", c)) for c in spec.categories])
     order = np.argsort(spec.categories)  # table_masses searches the categories: sort them
     return BoundSource(

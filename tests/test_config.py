@@ -369,3 +369,18 @@ def test_a_huge_file_is_refused(tmp_path):
     path.write_text(PAPER.read_text() + "#" * 5_000_001)
     with pytest.raises(InputError, match="larger than the limit"):
         load_config(path)
+
+
+def test_a_misspelt_table_row_is_named_at_its_line_with_the_category_it_likely_is(tmp_path):
+    """The error named the category the table lacked at the table's line, never the misspelt row."""
+    data = paper_data()
+    table = data["sources"]["sonar_open_space"]["table"]
+    table["outsde"] = table.pop("outside")
+    path = write(tmp_path, data)
+    line = next(i for i, text in enumerate(path.read_text().splitlines(), 1) if "outsde:" in text)
+    with pytest.raises(
+        InputError,
+        match=rf"sources\.sonar_open_space\.table\.outsde: category 'outsde' is not in `categories`: "
+        rf"is it 'outside', which the table lacks\? \(line {line}\)",
+    ):
+        load_config(path)
