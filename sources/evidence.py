@@ -244,7 +244,7 @@ def ramp_masses(
     if v.ndim != 1:
         raise ValueError(f"expected a 1-D array of numbers, got shape {v.shape}")
     if not np.isfinite(v).all():
-        raise ValueError(f"expected finite numbers, got {v[~np.isfinite(v)][0]!r}")
+        raise ValueError(f"expected finite numbers, got {float(v[~np.isfinite(v)][0])}")
     r = np.interp(v, x, y)
     out = np.multiply.outer(1.0 - r, rest)
     out[:, focal] += r  # m(focal) = r, m(A) = (1 - r) * rest(A)
