@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_logs_rosbag import ODOM, SCAN, odometry, scan, sonar, write_bag
 
 from evmap import configs
 from evmap.maps import new_map
@@ -268,3 +269,79 @@ def test_evmap_log_takes_no_figures_as_run_does(tmp_path):
     out = tmp_path / "out"
     assert main(["log", str(INTEL), "--out", str(out), "--limit", "3", "--no-figures"]) == 0
     assert not list(out.glob("fig*")) and (out / "map.pgm").exists()
+
+
+def _box_ranges(x: float, angles: np.ndarray) -> np.ndarray:
+    """Ranges from (x, 0), heading 0, to the walls of the box [-2, 6] x [-1, 3]."""
+    c, s = np.cos(angles), np.sin(angles)
+    with np.errstate(divide="ignore"):
+        tx = np.where(c > 0, (6 - x) / c, np.where(c < 0, (-2 - x) / c, np.inf))
+        ty = np.where(s > 0, 3 / s, np.where(s < 0, -1 / s, np.inf))
+    return np.minimum(tx, ty)
+
+
+def test_sonar_readings_are_new_by_their_order_in_the_log_not_by_their_stamps(config, tmp_path):
+    angles = np.radians(np.linspace(-90, 90, 181))
+    lines = []
+    for k, x in enumerate([0.0, 0.1, 0.2]):
+        if k < 2:  # a SONAR line before the first two scans, stamped 0 as some loggers do
+            lines.append("SONAR 0.4363 2 1.5 2.5 0.1 0 0 0 0.1 1.5708 0.0 host 0.0")
+        ranges = " ".join(f"{r:.4f}" for r in _box_ranges(x, angles))
+        lines.append(f"FLASER 181 {ranges} {x} 0 0 {x} 0 0 {1.0 + k} host {1.0 + k}")
+    path = tmp_path / "stamps.log"
+    path.write_text("\n".join(lines) + "\n")
+    run = run_log(path, config)
+    assert [obs.sonar is not None for obs in run.observations] == [True, True, False]
+    assert run.log.sonar == "log"
+
+
+def _bag(tmp_path: Path) -> Path:
+    """A ROS bag of two laser topics, a Range topic, and a scan of /scan before the first pose."""
+    messages = [(*SCAN, 0.5, scan(0.5, [1.0, 1.0, 1.0], frame="base_link"))]
+    for k in range(3):
+        t = 1.0 + k
+        ranges = list(_box_ranges(0.1 * k, np.radians(np.linspace(-90, 90, 181))))
+        messages += [
+            (*ODOM, t, odometry(t, 0.1 * k, 0.0, 0.0)),
+            ("/sonar", "sensor_msgs/msg/Range", t + 0.01, sonar(t + 0.01, 1.5, frame="base_link")),
+            (*SCAN, t + 0.05, scan(t + 0.05, ranges, increment=np.pi / 180, frame="base_link")),
+            ("/scan2", SCAN[1], t + 0.06, scan(t + 0.06, ranges, increment=np.pi / 180, frame="base_link")),
+        ]
+    return write_bag(tmp_path / "two.bag", 1, messages)
+
+
+def test_evmap_log_reads_the_bag_s_topics_it_is_told_and_reports_the_scans_skipped(tmp_path, capsys):
+    bag = _bag(tmp_path)
+    out = tmp_path / "out"
+    assert main(["log", str(bag), "--out", str(out), "--figures", "none"]) == 2
+    assert "2 LaserScan topics (/scan, /scan2): name one with --scan-topic" in capsys.readouterr().err
+    assert not out.exists()
+    assert main(["log", str(bag), "--out", str(out), "--figures", "none", "--scan-topic", "/scan"]) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert (report["scans"], report["scans_skipped"], report["sonar"]) == (3, 1, "log")
+    out2 = tmp_path / "out2"
+    args = ["log", str(bag), "--out", str(out2), "--figures", "none", "--scan-topic", "/scan2", "--range-topics", ""]
+    assert main(args) == 0
+    report = json.loads((out2 / "report.json").read_text())
+    assert (report["scans"], report["scans_skipped"], report["sonar"]) == (3, 0, "none")
+
+
+def test_ros_bag_flags_for_a_log_that_is_no_bag_are_refused(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["log", str(INTEL), "--out", str(out), "--odom-topic", ""]) == 2
+    err = capsys.readouterr().err
+    assert f"evmap: error: {INTEL}: ROS bag topics and frames (--scan-topic, --odom-topic" in err
+    assert "given for a log that is no ROS bag" in err and not out.exists()
+
+
+def test_the_rule_flag_says_which_rules_it_takes(capsys):
+    assert main(["log", "--help"]) == 0
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert "(a name in evidential.RULES that combines any mass functions)" in help_text
+
+
+def test_carmen_raw_scans_before_the_first_odometry_are_counted(tmp_path):
+    raw = "RAWLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 5.0 host 5.0"
+    path = tmp_path / "raw.log"
+    path.write_text(f"{raw}\n{raw}\nODOM 1 2 0.1 0 0 0 4.0 host 4.0\n{raw}\n{raw}\n")
+    assert [r.skipped for r in open_log(path)] == [2, 2]

@@ -24,15 +24,24 @@ def header(t: float, frame: str) -> object:
     )
 
 
-def quaternion(yaw: float) -> object:
-    return T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=np.sin(yaw / 2), w=np.cos(yaw / 2))
+def quaternion(yaw: float, roll: float = 0.0, pitch: float = 0.0) -> object:
+    """The rotation Rz(yaw) Ry(pitch) Rx(roll) as a quaternion message."""
+    (cr, sr), (cp, sp), (cy, sy) = ((np.cos(a / 2), np.sin(a / 2)) for a in (roll, pitch, yaw))
+    return T["geometry_msgs/msg/Quaternion"](
+        x=sr * cp * cy - cr * sp * sy,
+        y=cr * sp * cy + sr * cp * sy,
+        z=cr * cp * sy - sr * sp * cy,
+        w=cr * cp * cy + sr * sp * sy,
+    )
 
 
-def scan(t: float, ranges: list[float], increment: float = np.pi / 4, angle_max: float | None = None) -> object:
+def scan(
+    t: float, ranges: list[float], increment: float = np.pi / 4, angle_max: float | None = None, frame: str = "laser"
+) -> object:
     n = len(ranges)
     start = -increment * (n - 1) / 2
     return T["sensor_msgs/msg/LaserScan"](
-        header=header(t, "laser"),
+        header=header(t, frame),
         angle_min=start,
         angle_max=start + increment * (n - 1) if angle_max is None else angle_max,
         angle_increment=increment,
@@ -45,14 +54,15 @@ def scan(t: float, ranges: list[float], increment: float = np.pi / 4, angle_max:
     )
 
 
-def odometry(t: float, x: float, y: float, yaw: float) -> object:
+def odometry(t: float, x: float, y: float, yaw: float, orientation: object | None = None) -> object:
     v = T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
     return T["nav_msgs/msg/Odometry"](
         header=header(t, "odom"),
         child_frame_id="base_link",
         pose=T["geometry_msgs/msg/PoseWithCovariance"](
             pose=T["geometry_msgs/msg/Pose"](
-                position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0), orientation=quaternion(yaw)
+                position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
+                orientation=quaternion(yaw) if orientation is None else orientation,
             ),
             covariance=np.zeros(36),
         ),
@@ -62,20 +72,22 @@ def odometry(t: float, x: float, y: float, yaw: float) -> object:
     )
 
 
-def transform(t: float, parent: str, child: str, x: float, y: float, yaw: float) -> object:
+def transform(
+    t: float, parent: str, child: str, x: float, y: float, yaw: float, roll: float = 0.0, pitch: float = 0.0
+) -> object:
     stamped = T["geometry_msgs/msg/TransformStamped"](
         header=header(t, parent),
         child_frame_id=child,
         transform=T["geometry_msgs/msg/Transform"](
-            translation=T["geometry_msgs/msg/Vector3"](x=x, y=y, z=0.0), rotation=quaternion(yaw)
+            translation=T["geometry_msgs/msg/Vector3"](x=x, y=y, z=0.0), rotation=quaternion(yaw, roll, pitch)
         ),
     )
     return T["tf2_msgs/msg/TFMessage"](transforms=[stamped])
 
 
-def sonar(t: float, value: float) -> object:
+def sonar(t: float, value: float, frame: str = "sonar", min_range: float = 0.02) -> object:
     return T["sensor_msgs/msg/Range"](
-        header=header(t, "sonar"), radiation_type=0, field_of_view=0.4, min_range=0.02, max_range=5.0, range=value
+        header=header(t, frame), radiation_type=0, field_of_view=0.4, min_range=min_range, max_range=5.0, range=value
     )
 
 
@@ -97,6 +109,11 @@ def bag_path(tmp_path: Path, version: int) -> Path:
 
 
 STATIC = ("/tf_static", "tf2_msgs/msg/TFMessage")
+TF = ("/tf", "tf2_msgs/msg/TFMessage")
+ODOM = ("/odom", "nav_msgs/msg/Odometry")
+SCAN = ("/scan", "sensor_msgs/msg/LaserScan")
+RANGE = ("/sonar", "sensor_msgs/msg/Range")
+NO_ROTATION = T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=0.0)
 
 
 @pytest.mark.parametrize("version", [1, 2])
@@ -114,7 +131,7 @@ def test_odometry_poses_static_laser_offset_and_sonar(tmp_path: Path, version: i
         ],
     )
     (record,) = list(read_rosbag(path))
-    assert record.index == 0 and record.scan.stamp == pytest.approx(1.2)
+    assert record.index == 0 and record.scan.stamp == pytest.approx(1.2) and record.skipped == 1
     np.testing.assert_allclose(record.robot_pose, [1.0, 2.0, np.pi / 2], atol=1e-9)
     np.testing.assert_allclose(record.scan.pose, [1.0, 2.2, np.pi / 2], atol=1e-6)
     assert np.isnan(record.scan.ranges[1:4]).all() and record.scan.ranges[[0, 4]].tolist() == [1.0, 2.0]
@@ -156,7 +173,7 @@ def test_tf_poses_without_odometry(tmp_path: Path, version: int) -> None:
                 ("/scan", "sensor_msgs/msg/LaserScan", 1.1, scan(1.1, [1.0, 1.0, 1.0])),
             ],
             None,
-            "/odom@1.000000000: odometry pose (nan, 0.0, 0.0) is not finite",
+            "/odom@1.000000000: odometry pose (position nan, 0, 0; quaternion 0, 0, 0, 1) is not finite",
         ),
         (
             [
@@ -176,7 +193,11 @@ def test_tf_poses_without_odometry(tmp_path: Path, version: int) -> None:
             RosbagOptions(scan_topic="/x"),
             "no LaserScan topic '/x'",
         ),
-        ([("/odom", "nav_msgs/msg/Odometry", 1.0, odometry(1.0, 0.0, 0.0, 0.0))], None, "0 LaserScan topics (none)"),
+        (
+            [("/odom", "nav_msgs/msg/Odometry", 1.0, odometry(1.0, 0.0, 0.0, 0.0))],
+            None,
+            "bad_bag: no LaserScan topic (a",
+        ),
         (
             [
                 ("/odom", "nav_msgs/msg/Odometry", 1.0, odometry(1.0, 0.0, 0.0, 0.0)),
@@ -218,3 +239,188 @@ def test_files_that_are_no_bag_and_damaged_bags_are_refused_naming_them(tmp_path
     cut.write_bytes(data[: len(data) // 2])  # a bag whose writing stopped half-way
     with pytest.raises(LogError, match=r"cut.bag: (not a ROS bag evmap can read|damaged bag)"):
         list(read_rosbag(cut))
+
+
+def test_an_upside_down_laser_sweeps_clockwise(tmp_path: Path) -> None:
+    ranges = [1.0, 2.0, 3.0]  # beams at -45, 0, 45 deg in the laser frame
+    path = write_bag(
+        tmp_path / "upside.bag",
+        1,
+        [
+            (*STATIC, 0.0, transform(0.0, "base_link", "laser", 0.2, 0.0, 0.0, roll=np.pi)),
+            (*ODOM, 1.0, odometry(1.0, 0.0, 0.0, np.pi / 2)),
+            (*SCAN, 1.1, scan(1.1, ranges)),
+        ],
+    )
+    (record,) = list(read_rosbag(path))
+    # a beam at angle a points at -a on the robot (its z axis points down), the robot facing +y
+    bearings = np.pi / 2 - np.radians([-45.0, 0.0, 45.0])
+    expected = np.column_stack([np.cos(bearings), np.sin(bearings)]) * np.array(ranges)[:, None] + [0.0, 0.2]
+    np.testing.assert_allclose(record.scan.points, expected[::-1], atol=1e-6)
+    assert np.all(np.diff(record.scan.angles) > 0)
+
+
+@pytest.mark.parametrize(
+    ("messages", "message"),
+    [
+        (
+            [(*STATIC, 0.0, transform(0.0, "base_link", "laser", 0.2, 0.0, 0.0, pitch=np.radians(30)))],
+            "the scan plane of the laser frame 'laser' is tilted 30.0 deg from the horizontal (at most 10)",
+        ),
+        (
+            [(*ODOM, 0.5, odometry(0.5, 0.0, 0.0, 0.0, orientation=quaternion(0.0, roll=np.radians(20))))],
+            "/odom@0.500000000: odometry pose leans 20.0 deg out of the horizontal plane (at most 10)",
+        ),
+        (
+            [(*ODOM, 0.5, odometry(0.5, 0.0, 0.0, 0.0, orientation=NO_ROTATION))],
+            "/odom@0.500000000: odometry pose has the rotation (x, y, z, w) = (0, 0, 0, 0), not a unit quaternion",
+        ),
+        (
+            [
+                (*STATIC, 0.0, transform(0.0, "base_link", "laser", 0.0, 0.0, 0.0)),
+                (*STATIC, 0.0, transform(0.0, "base_link", "sonar", 0.0, 0.0, 0.0, pitch=np.radians(45))),
+                (*RANGE, 0.9, sonar(0.9, 1.0)),
+            ],
+            "the axis of the range sensor frame 'sonar' points 45.0 deg out of the horizontal plane",
+        ),
+    ],
+)
+def test_sensors_and_poses_out_of_the_horizontal_plane_are_refused(
+    tmp_path: Path, messages: list, message: str
+) -> None:
+    path = write_bag(
+        tmp_path / "tilted.bag",
+        1,
+        [*messages, (*ODOM, 1.0, odometry(1.0, 0.0, 0.0, 0.0)), (*SCAN, 1.1, scan(1.1, [1.0, 1.0, 1.0]))],
+    )
+    with pytest.raises(LogError, match=re.escape(message)):
+        list(read_rosbag(path))
+
+
+def test_a_scan_is_placed_at_its_stamp_not_when_it_was_recorded(tmp_path: Path) -> None:
+    path = write_bag(
+        tmp_path / "latency.bag",
+        1,
+        [
+            *[(*ODOM, t, odometry(t, t, 0.0, t)) for t in (1.0, 1.1, 1.2, 1.3)],
+            (*SCAN, 1.32, scan(1.0, [1.0, 1.0, 1.0])),  # recorded 0.32 s after it was taken
+            (*SCAN, 1.35, scan(1.15, [1.0, 1.0, 1.0])),
+            (*STATIC, 1.4, transform(0.0, "base_link", "laser", 0.0, 0.0, np.pi)),  # static: at every stamp
+        ],
+    )
+    records = list(read_rosbag(path))
+    np.testing.assert_allclose([r.robot_pose for r in records], [[1.0, 0, 1.0], [1.1, 0, 1.1]], atol=1e-9)
+    np.testing.assert_allclose([r.scan.pose[2] for r in records], [1.0 - np.pi, 1.1 - np.pi], atol=1e-9)
+
+
+def test_transforms_recorded_out_of_stamp_order_apply_by_stamp(tmp_path: Path) -> None:
+    path = write_bag(
+        tmp_path / "tf.bag",
+        1,
+        [
+            (*TF, 1.0, transform(1.0, "odom", "base_link", 1.0, 0.0, 0.0)),
+            (*TF, 2.0, transform(3.0, "odom", "base_link", 3.0, 0.0, 0.0)),
+            (*TF, 2.5, transform(2.0, "odom", "base_link", 2.0, 0.0, 0.0)),  # older than the one held
+            (*SCAN, 3.6, scan(3.5, [1.0, 1.0, 1.0], frame="base_link")),
+            (*SCAN, 3.7, scan(2.2, [1.0, 1.0, 1.0], frame="base_link")),
+        ],
+    )
+    assert [r.robot_pose[0] for r in read_rosbag(path)] == [3.0, 2.0]
+
+
+def test_a_scan_older_than_the_poses_kept_after_placed_scans_is_refused(tmp_path: Path) -> None:
+    path = write_bag(
+        tmp_path / "old.bag",
+        1,
+        [
+            *[(*ODOM, 1.0 + k, odometry(1.0 + k, k, 0.0, 0.0)) for k in range(40)],
+            (*SCAN, 40.5, scan(40.5, [1.0, 1.0, 1.0], frame="base_link")),
+            (*SCAN, 40.6, scan(0.5, [1.0, 1.0, 1.0], frame="base_link")),  # before every pose read
+        ],
+    )
+    with pytest.raises(LogError, match=r"/scan@0.500000000: no pose at or before the scan's stamp by odometry"):
+        list(read_rosbag(path))
+
+
+@pytest.mark.parametrize(
+    ("messages", "frame"),
+    [
+        ([(*STATIC, 0.0, transform(0.0, "base_link", "laser_mount", 0.2, 0.0, 0.0))], "laser"),
+        (
+            [
+                (*STATIC, 0.0, transform(0.0, "base_link", "laser", 0.2, 0.0, 0.0)),
+                (*RANGE, 1.05, sonar(1.05, 1.0, frame="sonar_left")),
+            ],
+            "sonar_left",
+        ),
+    ],
+)
+def test_a_sensor_tf_does_not_link_to_the_robot_is_refused(tmp_path: Path, messages: list, frame: str) -> None:
+    path = write_bag(
+        tmp_path / "unlinked.bag",
+        1,
+        [*messages, (*ODOM, 1.0, odometry(1.0, 0.0, 0.0, 0.0)), (*SCAN, 1.1, scan(1.1, [1.0, 1.0, 1.0]))],
+    )
+    message = f"unlinked.bag /scan@1.100000000: tf does not link the frame {frame!r} to the robot's frame 'base_link'"
+    with pytest.raises(LogError, match=re.escape(message)):
+        list(read_rosbag(path))
+
+
+def test_without_any_tf_the_sensors_sit_on_the_robot_s_centre(tmp_path: Path) -> None:
+    path = write_bag(
+        tmp_path / "simple.bag",
+        1,
+        [
+            (*ODOM, 1.0, odometry(1.0, 1.0, 2.0, 0.5)),
+            (*RANGE, 1.05, sonar(1.05, 1.0)),
+            (*SCAN, 1.1, scan(1.1, [1.0, 1.0, 1.0])),
+        ],
+    )
+    (record,) = list(read_rosbag(path))
+    np.testing.assert_allclose(record.scan.pose, [1.0, 2.0, 0.5], atol=1e-9)
+    assert record.sonar is not None and record.sonar.offsets.tolist() == [[0.0, 0.0, 0.0]]
+
+
+def test_a_ring_is_a_new_object_exactly_when_a_range_message_came_whatever_its_stamp(tmp_path: Path) -> None:
+    path = write_bag(
+        tmp_path / "stamps.bag",
+        1,
+        [
+            (*ODOM, 1.0, odometry(1.0, 0.0, 0.0, 0.0)),
+            (*RANGE, 1.05, sonar(0.0, 1.0)),  # every reading stamped 0
+            (*SCAN, 1.1, scan(1.1, [1.0, 1.0, 1.0])),
+            (*RANGE, 1.15, sonar(0.0, 2.0)),
+            (*SCAN, 1.2, scan(1.2, [1.0, 1.0, 1.0])),
+            (*SCAN, 1.3, scan(1.3, [1.0, 1.0, 1.0])),
+        ],
+    )
+    first, second, third = (r.sonar for r in read_rosbag(path))
+    assert first is not None and second is not None and first is not second and third is second
+    assert (first.ranges.tolist(), second.ranges.tolist()) == ([1.0], [2.0])
+
+
+def test_a_range_too_close_to_measure_is_an_echo_at_min_range(tmp_path: Path) -> None:
+    values = {"/a": -np.inf, "/b": 0.01, "/c": np.inf, "/d": 0.03, "/e": np.nan, "/f": 5.0}
+    path = write_bag(
+        tmp_path / "close.bag",
+        1,
+        [
+            (*ODOM, 1.0, odometry(1.0, 0.0, 0.0, 0.0)),
+            *[(topic, RANGE[1], 1.05, sonar(1.05, v, frame="base_link")) for topic, v in values.items()],
+            (*SCAN, 1.1, scan(1.1, [1.0, 1.0, 1.0])),
+        ],
+    )
+    (record,) = list(read_rosbag(path))
+    assert record.sonar is not None
+    np.testing.assert_allclose(record.sonar.ranges, [0.02, 0.02, np.nan, 0.03, np.nan, np.nan])
+    bad = write_bag(
+        tmp_path / "bad.bag",
+        1,
+        [
+            (*ODOM, 1.0, odometry(1.0, 0.0, 0.0, 0.0)),
+            (*RANGE, 1.05, sonar(1.05, 1.0, min_range=-1.0)),
+            (*SCAN, 1.1, scan(1.1, [1.0, 1.0, 1.0])),
+        ],
+    )
+    with pytest.raises(LogError, match=re.escape("/sonar@1.050000000: Range min_range -1 is not a number from 0")):
+        list(read_rosbag(bad))

@@ -6,12 +6,14 @@
     (``--figures png|svg|pdf|none``, default png; ``--no-figures`` is ``none``)
     into DIR (``docs/SCENARIO.md``); ``--json`` also prints the report on
     standard output, and nothing else goes there.
-``evmap log FILE [--out DIR] [--every N] [--limit N] [--readings DIR] [--config FILE] [--rule NAME] [--json] [--figures FORMAT] [--force]``
+``evmap log FILE [--out DIR] [--every N] [--limit N] [--readings DIR] [--config FILE] [--rule NAME] [--json] [--figures FORMAT] [--force] [--scan-topic T] [--odom-topic T] [--range-topics T,...] [--world-frame F] [--base-frame F]``
     a belief map from a robot log (CARMEN, g2o, ROS bag; poses from the log,
     the laser as the contour sensor) with a progress bar on standard error:
     the same artefacts as ``run``, and the ROS map pair ``map.pgm``/``map.yaml``
     (``docs/SCENARIO.md``, logs section); ``--readings DIR`` gives the readings of
-    the config's declared (YAML) sensors, ``DIR/scan-N.npz`` per scan used.
+    the config's declared (YAML) sensors, ``DIR/scan-N.npz`` per scan used. The
+    topic and frame flags choose what a ROS bag is read from
+    (:class:`~evmap.sources.logs.rosbag.RosbagOptions`); another log refuses them.
 ``evmap compare --rules dempster,yager,... --worlds N --seed S --out DIR [--scheduler ADDRESS]``
     every rule on the same scans of N generated worlds: per-rule and per-world
     tables (CSV, Markdown) and plots (see :mod:`evmap.maps.app.compare`).
@@ -50,6 +52,7 @@ from contextlib import contextmanager
 from typing import Any
 
 from evmap.maps.app.compare_args import add_compare_parser
+from evmap.maps.app.termination import Terminated, terminate
 
 __all__ = [
     "build_parser",
@@ -63,6 +66,8 @@ __all__ = [
 ]
 
 Handler = Callable[[argparse.Namespace], int]
+
+RULE_HELP = "combination rule, overriding the config's (a name in evidential.RULES that combines any mass functions)"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -97,7 +102,7 @@ def _command(argv: Sequence[str] | None) -> int:
     except SystemExit as exc:  # argparse printed the usage error (2) or the help (0)
         return exc.code if isinstance(exc.code, int) else 2
     handler: Handler = args.handler
-    previous = signal.signal(signal.SIGTERM, _terminate)
+    previous = signal.signal(signal.SIGTERM, terminate)
     try:
         return handler(args)
     except (ValueError, OSError) as exc:  # InputError, every other complaint about input, and output problems
@@ -131,14 +136,6 @@ def _imports() -> Iterator[None]:
         gc.enable()
 
 
-class Terminated(Exception):
-    """SIGTERM arrived: the command stops as after Ctrl-C, cleaning up what it started."""
-
-
-def _terminate(signum: int, frame: object) -> None:
-    raise Terminated
-
-
 def _closed_pipe() -> int:
     """Standard output's reader went away (``evmap config check | head``): stop quietly, as SIGPIPE would."""
     devnull = os.open(os.devnull, os.O_WRONLY)
@@ -162,7 +159,7 @@ def build_parser() -> argparse.ArgumentParser:
         default="default",
         help="config file, or a packaged config by name: default (the default: the evidence beyond the paper), paper (the paper's method)",
     )
-    run.add_argument("--rule", help="combination rule, overriding the config's (a name in evidential.RULES)")
+    run.add_argument("--rule", help=RULE_HELP)
     run.add_argument("--out", default="out", help="directory for the artefacts (default: out)")
     run.add_argument("--force", action="store_true", help="replace --out if evmap wrote it")
     run.add_argument("--json", action="store_true", help="print report.json on standard output")
@@ -179,7 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
         default="default",
         help="config file, or a packaged config by name: default (the default: the evidence beyond the paper), paper (the paper's method)",
     )
-    log.add_argument("--rule", help="combination rule, overriding the config's (a name in evidential.RULES)")
+    log.add_argument("--rule", help=RULE_HELP)
     log.add_argument("--out", default="out", help="directory for the artefacts (default: out)")
     log.add_argument("--every", type=int, default=1, help="use every N-th laser scan (default: 1, all)")
     log.add_argument("--limit", type=int, help="use at most N scans")
@@ -190,6 +187,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     log.add_argument("--force", action="store_true", help="replace --out if evmap wrote it")
     log.add_argument("--json", action="store_true", help="print report.json on standard output")
+    bag = log.add_argument_group("ROS bags", "what a ROS bag is read from (default: found in the bag)")
+    bag.add_argument("--scan-topic", metavar="TOPIC", help="the LaserScan topic (default: the bag's only one)")
+    bag.add_argument(
+        "--odom-topic", metavar="TOPIC", help="Odometry topic, '' for poses from tf (default: its only one)"
+    )
+    bag.add_argument(
+        "--range-topics", metavar="TOPICS", help="Range topics, comma-separated; '' for none (default: all)"
+    )
+    bag.add_argument("--world-frame", metavar="FRAME", help="the world's tf frame, poses from tf (default: odom)")
+    bag.add_argument("--base-frame", metavar="FRAME", help="the robot's tf frame, poses from tf (default: base_link)")
     log.add_argument(
         "--figures", choices=["png", "svg", "pdf", "none"], default="png", help="figure format (default: png)"
     )
@@ -216,7 +223,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     explain.add_argument("--source", required=True, help="name of a source of the config")
     explain.add_argument(
-        "--value", required=True, help="the feature value: a number for a ramp, a category for a table"
+        "--value",
+        required=True,
+        help="the feature value: a number for a ramp, a category for a table (a negative number in exponent "
+        "form as --value=-1e3)",
     )
     explain.set_defaults(handler=config_explain)
 
@@ -322,9 +332,12 @@ def log_command(args: argparse.Namespace) -> int:
     def bar(records: Iterable[Any]) -> Iterable[Any]:
         return tqdm(records, desc="scans", unit="scan", file=sys.stderr, total=args.limit, leave=False)
 
+    rosbag = _rosbag_options(args)
     with prepare_out(args.out, args.force) as staging:  # --out checked and claimed before the work
         print(f"evmap: mapping log {args.file} with rule {cfg.rule!r}", file=sys.stderr)
-        run = run_log(args.file, cfg, every=args.every, limit=args.limit, progress=bar, readings=args.readings)
+        run = run_log(
+            args.file, cfg, every=args.every, limit=args.limit, progress=bar, readings=args.readings, rosbag=rosbag
+        )
         summary = write_staged(run, staging, figures=args.figures != "none", figure_format=args.figures)
     fit = summary["line_fit"]
     coverage = "n/a" if fit["coverage_mean"] is None else f"{fit['coverage_mean']:.3f}"
@@ -339,6 +352,14 @@ def log_command(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(summary, indent=2))
     return 0
+
+
+def _rosbag_options(args: argparse.Namespace) -> Any:
+    """The ROS bag flags of ``evmap log`` (:meth:`~evmap.sources.logs.rosbag.RosbagOptions.from_flags`)."""
+    from evmap.sources.logs.rosbag import RosbagOptions
+
+    names = ("scan_topic", "odom_topic", "range_topics", "world_frame", "base_frame")
+    return RosbagOptions.from_flags(**{name: getattr(args, name) for name in names})
 
 
 def config_check(args: argparse.Namespace) -> int:

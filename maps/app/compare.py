@@ -22,7 +22,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from evmap.maps.app.cli import Terminated
 from evmap.maps.app.compare_runner import check_rules, check_run, iter_results
 from evmap.maps.app.compare_tables import (
     WORLD_COLUMNS,
@@ -35,6 +34,7 @@ from evmap.maps.app.compare_tables import (
 )
 from evmap.maps.app.output_layout import COMPARE_LAYOUT, MIN_FREE_BYTES
 from evmap.maps.app.staging import claim_output
+from evmap.maps.app.termination import Terminated
 
 __all__ = ["BYTES_PER_WORLD", "compare_command", "write_comparison"]
 

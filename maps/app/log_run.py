@@ -5,8 +5,10 @@
 observation (:func:`evmap.maps.log_observation.observation_from_log`) whose
 ``pose_index`` is its place among the used scans, and is folded into one map.
 The log's sonar readings are used where it has them, each reading once (a
-record whose readings are those of the previous used scan brings none); a log
-without any skips the sonar stages and the report says ``"sonar": "none"``.
+record whose readings are the same object as those of the previous used scan
+brings none, whatever their stamps); a log without any skips the sonar stages
+and the report says ``"sonar": "none"``. The scans the reader could not place
+(before the first pose) are counted in the report (``scans_skipped``).
 PLE's line-fit measures of the laser segments come along.
 
 The config's declared sensors (``extra_sensors``, YAML sensors) read their
@@ -40,7 +42,7 @@ from evmap.maps.log_observation import observation_from_log
 from evmap.sources.config_model import Config
 from evmap.sources.laser import LaserParams
 from evmap.sources.line_fit import log_fit, scan_fit
-from evmap.sources.logs import LogRecord, open_log
+from evmap.sources.logs import LogRecord, RangeReadings, RosbagOptions, open_log
 from evmap.sources.sensor_kinds import read_readings
 
 __all__ = ["run_log"]
@@ -60,8 +62,11 @@ def run_log(
     laser: LaserParams | None = None,
     progress: Progress | None = None,
     readings: str | Path | None = None,
+    rosbag: RosbagOptions | None = None,
 ) -> Run:
     """Fold every ``every``-th scan of the log at ``path`` (at most ``limit``) into one belief map.
+
+    ``rosbag``: the topics and frames of a ROS bag (None: found in the bag); refused for another log.
 
     Raises :class:`~evmap.sources.logs.LogError` (a ValueError naming the file and
     line) for what the log's reader cannot read, and a ValueError naming the file
@@ -73,18 +78,20 @@ def run_log(
         raise ValueError(f"--limit must be at least 1, got {limit}")
     _check_readings(config, readings)
     laser = laser or LaserParams()
-    log = open_log(path)
+    log = open_log(path, rosbag=rosbag)
     records: Iterable[LogRecord] = islice(_every(iter(log), every), limit)
     if progress is not None:
         records = progress(records)
     bm = new_map(config)
     observations, outcomes, fits, seconds = [], [], [], []
-    last_sonar: float | None = None
+    last_sonar: RangeReadings | None = None  # the readings of the last scan that brought new ones
+    skipped = 0
     for k, record in enumerate(records):
         start = time.perf_counter()
-        sonar = record.sonar if record.sonar is not None and record.sonar.stamp != last_sonar else None
+        sonar = record.sonar if record.sonar is not last_sonar else None  # a new object: new readings
         if sonar is not None:
-            last_sonar = sonar.stamp
+            last_sonar = sonar
+        skipped = record.skipped
         extra = None if readings is None else _scan_readings(Path(readings), record.index)
         try:
             obs = observation_from_log(record, config, k, laser, sonar, extra)
@@ -102,6 +109,7 @@ def run_log(
     summary = LogSummary(
         source=log.source,
         scans=len(observations),
+        scans_skipped=skipped,
         sonar="log" if last_sonar is not None else "none",
         coverage_mean=_finite(coverage),
         rms_error_median=_finite(error),

@@ -39,6 +39,8 @@ class LogSummary:
     ----------
     source : the log read.
     scans : the scans used (after ``--every`` and ``--limit``).
+    scans_skipped : the scans of the log, before the last one used, that the reader could not place
+        (no pose known for them).
     sonar : ``"log"`` if the log's sonar readings were folded in, ``"none"`` if it had none
         (the sonar stages skipped).
     coverage_mean, rms_error_median : PLE's line-fit measures of the scans' laser segments
@@ -50,6 +52,7 @@ class LogSummary:
 
     source: str
     scans: int
+    scans_skipped: int
     sonar: str
     coverage_mean: float | None
     rms_error_median: float | None
@@ -213,6 +216,7 @@ def _log_report(run: Run, log: LogSummary) -> dict[str, Any]:
         "log": log.source,
         "rule": run.config.rule,
         "scans": log.scans,
+        "scans_skipped": log.scans_skipped,
         "poses": len(run.observations),
         "sonar": log.sonar,
         "lsl_segments": int(raw.sum()),

@@ -21,6 +21,7 @@ Examples
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from evmap.sources.logs.carmen import CarmenOptions, read_carmen
@@ -43,17 +44,25 @@ __all__ = [
 ]
 
 
-def open_log(path: str | Path, unit: Unit = "m") -> Log:
+def open_log(path: str | Path, unit: Unit = "m", rosbag: RosbagOptions | None = None) -> Log:
     """The log at ``path`` with the reader its name calls for, every other option at its default.
 
     ``*.g2o``: g2o; ``*.bag``, ``*.mcap``, ``*.db3`` or a directory (a ROS 2
-    bag): ROS bag; anything else (``*.log``, ``*.clf``, ``*.gz``): CARMEN.
+    bag): ROS bag, read with ``rosbag``'s topics and frames if given (its unit
+    is ``unit``); anything else (``*.log``, ``*.clf``, ``*.gz``): CARMEN.
+    ``rosbag`` for a log that is no ROS bag is a :class:`LogError`.
     """
     path = Path(path)
     if not path.exists():
         raise LogError(f"{path}: no such log")
+    is_bag = path.is_dir() or path.suffix in {".bag", ".mcap", ".db3"}
+    if rosbag is not None and not is_bag:
+        raise LogError(
+            f"{path}: ROS bag topics and frames (--scan-topic, --odom-topic, --range-topics, --world-frame, "
+            "--base-frame) given for a log that is no ROS bag (*.bag, *.mcap, *.db3 or a ROS 2 bag directory)"
+        )
     if path.suffix == ".g2o":
         return read_g2o(path, unit)
-    if path.is_dir() or path.suffix in {".bag", ".mcap", ".db3"}:
-        return read_rosbag(path, RosbagOptions(unit=unit))
+    if is_bag:
+        return read_rosbag(path, replace(rosbag or RosbagOptions(), unit=unit))
     return read_carmen(path, CarmenOptions(unit=unit))

@@ -58,7 +58,7 @@ import os
 import stat
 import zlib
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -303,7 +303,7 @@ def _records(path: Path, options: CarmenOptions) -> Iterator[LogRecord]:
                 raw_scans += 1
                 scan, _ = _laser_line(words, where, options.unit, 0)
                 if state.odometry is not None:
-                    yield _placed(scan, state, where, index)
+                    yield replace(_placed(scan, state, where, index), skipped=raw_scans - 1 - index)
                     index += 1
         elif name == "ODOM":
             if len(words) != 10:

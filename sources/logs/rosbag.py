@@ -1,6 +1,6 @@
 """ROS 1 and ROS 2 bags (through the ``rosbags`` library): laser scans, range sensors, poses from odometry or tf.
 
-What :func:`read_rosbag` reads, in the bag's time order:
+What :func:`read_rosbag` reads, in the bag's record order, each message placed by its header stamp:
 
 - ``sensor_msgs/LaserScan`` on ``scan_topic`` (default: the bag's only LaserScan
   topic): beam ``i`` at ``angle_min + i * angle_increment`` (checked against
@@ -9,25 +9,46 @@ What :func:`read_rosbag` reads, in the bag's time order:
   ``[range_min, range_max)`` or not finite as no returns. One record per scan.
 - ``sensor_msgs/Range`` on ``range_topics`` (default: every Range topic): the
   latest reading of each topic, together a ring (:class:`~evmap.sources.logs.scan.RangeReadings`,
-  topics in name order), each sensor placed on the robot by tf (identity if tf
-  does not link its frame to the robot's); a range outside
-  ``[min_range, max_range)`` is no echo; ``field_of_view`` is the beam width.
+  topics in name order), each sensor placed on the robot by tf; a new ring (a new
+  object) only when a Range message came since the previous record. A range at or
+  above ``max_range``, ``+inf`` or NaN is no echo; ``-inf`` (REP 117: too close to
+  measure) and a reading below ``min_range`` are an echo at ``min_range`` (an
+  obstacle closer than the sensor can measure); ``field_of_view`` is the beam width.
 - Poses: with ``odom_topic`` (default: the bag's only ``nav_msgs/Odometry`` topic,
-  if it has one) the robot's pose is the latest odometry pose, its frame the
-  odometry's ``child_frame_id``, and the laser sits on it as tf says (identity
-  if tf does not link them). Without odometry the laser's pose is its frame in
-  ``world_frame`` through the latest ``tf2_msgs/TFMessage`` transforms (``/tf``
-  and ``/tf_static``), the robot's is ``base_frame``'s (the laser's if unknown).
-  The latest pose at or before a scan is used, not interpolated; scans before the
-  first pose are skipped, and a bag none of whose scans can be placed is an error.
+  if it has one) the robot's pose is the odometry pose, its frame the
+  odometry's ``child_frame_id``, and the laser sits on it as tf says. Without
+  odometry the laser's pose is its frame in ``world_frame`` through the
+  ``tf2_msgs/TFMessage`` transforms, the robot's is ``base_frame``'s (the
+  laser's if tf does not link ``base_frame`` to the world).
+
+Time: a scan is placed at its header stamp: by the odometry pose, and each dynamic
+(``/tf``) transform of the chain, of the latest stamp at or before it among the
+messages read before the scan (not interpolated); transforms recorded out of stamp
+order are kept in stamp order. Each source keeps at least the last
+:data:`~evmap.sources.logs.tf.HISTORY_SECONDS` of stamps (at most twice that), so memory stays bounded.
+Static transforms (a topic named ``tf_static``) are read first and hold at every
+stamp. Scans before the first one that can be placed are skipped and counted
+(:attr:`~evmap.sources.logs.scan.LogRecord.skipped`); a later scan that cannot be
+placed, and a bag none of whose scans can be, is an error.
+
+Geometry: transforms and odometry orientations are full 3D rotations. A beam at
+angle ``a`` in the laser's frame points along ``R (cos a, sin a, 0)`` in the
+world: a laser mounted upside down (its z axis pointing down) sweeps clockwise,
+and its beams are turned around. A laser whose scan plane, a range sensor whose
+axis, or a robot pose that leans more than :data:`~evmap.sources.logs.tf.MAX_TILT_DEG` out of the
+horizontal plane is refused. A laser or range sensor frame that tf does not link
+to the robot's frame sits on the robot's centre only in a bag without any tf
+topic; in a bag with tf it is an error naming the frames.
 
 Checks, each a :class:`~evmap.sources.logs.scan.LogError` naming the bag, topic
-and stamp: a non-finite pose or transform, a beam layout that does not fit its
-``angle_max``, a non-positive or non-finite ``range_max``, the range checks of
+and stamp: a non-finite pose or transform, a rotation that is no unit quaternion,
+a beam layout that does not fit its ``angle_max``, a non-positive or non-finite
+``range_max``, the range checks of
 :meth:`~evmap.sources.logs.scan.LaserGeometry.ranges`, a Range of impossible
-field of view or maximum range; missing or ambiguous topics; a file that is no bag,
+field of view, minimum or maximum range; missing or ambiguous topics; a file that is no bag,
 a directory without a ROS 2 bag's ``metadata.yaml``, and a damaged bag (naming the
-stamp of the last message read).
+stamp of the last message read). The errors name the options as ``evmap log``'s
+flags (``--scan-topic``, ``--odom-topic``, ...; :class:`RosbagOptions`).
 """
 
 from __future__ import annotations
@@ -49,22 +70,36 @@ from evmap.sources.logs.scan import (
     LogRecord,
     RangeReadings,
     Unit,
-    check_pose,
-    compose,
+)
+from evmap.sources.logs.tf import (
+    HISTORY_SECONDS,
+    History,
+    TfBuffer,
+    frame_name,
+    header_stamp,
+    laser_pose,
+    rigid,
+    robot_pose,
+    sensor_pose,
+    then,
 )
 
 if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader
 
-__all__ = ["LASER_SCAN", "ODOMETRY", "RANGE", "TF", "RosbagOptions", "read_rosbag"]
+__all__ = [
+    "LASER_SCAN",
+    "ODOMETRY",
+    "RANGE",
+    "TF",
+    "RosbagOptions",
+    "read_rosbag",
+]
 
 LASER_SCAN = "sensor_msgs/msg/LaserScan"
 RANGE = "sensor_msgs/msg/Range"
 ODOMETRY = "nav_msgs/msg/Odometry"
 TF = "tf2_msgs/msg/TFMessage"
-
-MAX_TF_DEPTH = 64
-"""Longest tf chain followed (a longer one is a loop)."""
 
 
 @dataclass(frozen=True)
@@ -73,11 +108,11 @@ class RosbagOptions:
 
     Attributes
     ----------
-    scan_topic : the LaserScan topic.
-    range_topics : the Range topics (an empty tuple: none).
-    odom_topic : the Odometry topic; ``""``: none, poses from tf.
-    world_frame : the tf frame of the world (without odometry).
-    base_frame : the robot's tf frame (without odometry).
+    scan_topic : the LaserScan topic (``evmap log --scan-topic``).
+    range_topics : the Range topics, an empty tuple: none (``--range-topics``).
+    odom_topic : the Odometry topic; ``""``: none, poses from tf (``--odom-topic``).
+    world_frame : the tf frame of the world, without odometry (``--world-frame``).
+    base_frame : the robot's tf frame, without odometry (``--base-frame``).
     unit : unit of the ranges.
     """
 
@@ -88,6 +123,34 @@ class RosbagOptions:
     base_frame: str = "base_link"
     unit: Unit = "m"
 
+    @classmethod
+    def from_flags(
+        cls,
+        scan_topic: str | None = None,
+        odom_topic: str | None = None,
+        range_topics: str | None = None,
+        world_frame: str | None = None,
+        base_frame: str | None = None,
+    ) -> RosbagOptions | None:
+        """``evmap log``'s flags as options (``range_topics`` comma-separated); None where none is given.
+
+        >>> RosbagOptions.from_flags(odom_topic="", range_topics="/a,/b").range_topics
+        ('/a', '/b')
+        >>> RosbagOptions.from_flags() is None
+        True
+        """
+        names = ("scan_topic", "odom_topic", "range_topics", "world_frame", "base_frame")
+        values = (scan_topic, odom_topic, range_topics, world_frame, base_frame)
+        given = {name: value for name, value in zip(names, values, strict=True) if value is not None}
+        if not given:
+            return None
+        for name in ("scan_topic", "world_frame", "base_frame"):
+            if name in given and not given[name].strip("/"):
+                raise ValueError(f"--{name.replace('_', '-')} needs a name")
+        if "range_topics" in given:
+            given["range_topics"] = tuple(topic for topic in given["range_topics"].split(",") if topic)
+        return cls(**given)
+
 
 def read_rosbag(path: str | Path, options: RosbagOptions | None = None) -> Log:
     """The bag at ``path`` (a ROS 1 ``.bag`` file or a ROS 2 bag directory) as a stream of records."""
@@ -97,41 +160,9 @@ def read_rosbag(path: str | Path, options: RosbagOptions | None = None) -> Log:
     return Log(str(path), lambda: _records(Path(path), options))
 
 
-def _frame(name: str) -> str:
-    return name.lstrip("/")
-
-
-def _stamp(msg: Any) -> float:
-    return msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
-
-
-def _yaw(q: Any) -> float:
-    return float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y**2 + q.z**2)))
-
-
-class _Tf:
-    """The latest transform of every tf frame: child -> (parent, 2D pose of the child in the parent)."""
-
-    def __init__(self) -> None:
-        self.parent: dict[str, tuple[str, NDArray[np.float64]]] = {}
-
-    def add(self, msg: Any, where: str) -> None:
-        for t in msg.transforms:
-            child = _frame(t.child_frame_id)
-            pose = [t.transform.translation.x, t.transform.translation.y, _yaw(t.transform.rotation)]
-            self.parent[child] = (_frame(t.header.frame_id), check_pose(pose, where, f"transform of {child!r}"))
-
-    def pose(self, frame: str, target: str) -> NDArray[np.float64] | None:
-        """Pose of ``frame`` in ``target``, or None if the transforms do not link them."""
-        pose = np.zeros(3)
-        for _ in range(MAX_TF_DEPTH):
-            if frame == target:
-                return pose
-            if frame not in self.parent:
-                return None
-            frame, relative = self.parent[frame]
-            pose = compose(relative, pose)
-        return None
+def _is_static(topic: str) -> bool:
+    """Whether a tf topic holds static transforms (``/tf_static``, or a namespaced ``.../tf_static``)."""
+    return topic.rstrip("/").rsplit("/", 1)[-1] == "tf_static"
 
 
 def _topics(reader: AnyReader, msgtype: str) -> list[str]:
@@ -142,24 +173,36 @@ def _choose(reader: AnyReader, path: Path, options: RosbagOptions) -> tuple[str,
     scans = _topics(reader, LASER_SCAN)
     scan_topic = options.scan_topic
     if scan_topic is None:
-        if len(scans) != 1:
-            raise LogError(f"{path}: {len(scans)} LaserScan topics ({', '.join(scans) or 'none'}): name scan_topic")
+        if not scans:
+            raise LogError(f"{path}: no LaserScan topic (a {LASER_SCAN} topic is what evmap maps)")
+        if len(scans) > 1:
+            raise LogError(f"{path}: {len(scans)} LaserScan topics ({', '.join(scans)}): name one with --scan-topic")
         scan_topic = scans[0]
     elif scan_topic not in scans:
         raise LogError(f"{path}: no LaserScan topic {scan_topic!r} (LaserScan topics: {', '.join(scans) or 'none'})")
     ranges = _topics(reader, RANGE)
     range_topics = ranges if options.range_topics is None else list(options.range_topics)
     if missing := sorted(set(range_topics) - set(ranges)):
-        raise LogError(f"{path}: no Range topic {missing[0]!r} (Range topics: {', '.join(ranges) or 'none'})")
+        raise LogError(
+            f"{path}: no Range topic {missing[0]!r} (Range topics: {', '.join(ranges) or 'none'}; "
+            "--range-topics '' for none)"
+        )
     odoms = _topics(reader, ODOMETRY)
     odom_topic = options.odom_topic
     if odom_topic is None:
         if len(odoms) > 1:
-            raise LogError(f"{path}: {len(odoms)} Odometry topics ({', '.join(odoms)}): name odom_topic")
+            raise LogError(
+                f"{path}: {len(odoms)} Odometry topics ({', '.join(odoms)}): name one with --odom-topic "
+                "(or --odom-topic '' for poses from tf)"
+            )
         odom_topic = odoms[0] if odoms else ""
     elif odom_topic and odom_topic not in odoms:
         raise LogError(f"{path}: no Odometry topic {odom_topic!r} (Odometry topics: {', '.join(odoms) or 'none'})")
     return scan_topic, range_topics, odom_topic
+
+
+Reading = tuple[float, str, float, float, float]
+"""A Range message: stamp, frame, range (m, NaN for no echo), maximum range (m), field of view (rad)."""
 
 
 def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
@@ -175,56 +218,105 @@ def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
         raise LogError(f"{path}: not a ROS bag evmap can read ({type(exc).__name__}: {exc})") from None
     try:
         scan_topic, range_topics, odom_topic = _choose(reader, path, options)
+        tf_connections = [c for c in reader.connections if c.msgtype == TF]
+        tf = TfBuffer()
+        for connection, msg in _messages(reader, [c for c in tf_connections if _is_static(c.topic)], path):
+            tf.add(msg, f"{path} {connection.topic}", static=True)
         wanted = {scan_topic, odom_topic, *range_topics}
-        connections = [c for c in reader.connections if c.topic in wanted or c.msgtype == TF]
-        tf = _Tf()
-        odom: tuple[str, NDArray[np.float64]] | None = None
-        latest: dict[str, tuple[float, str, float, float, float]] = {}
-        index = scans = 0
+        connections = [c for c in reader.connections if c.topic in wanted and c.msgtype != TF]
+        connections += [c for c in tf_connections if not _is_static(c.topic)]
+        places = _Places(options, odom_topic, tf, bool(tf_connections))
+        latest: dict[str, Reading] = {}
+        ring: RangeReadings | None = None
+        index = skipped = 0
         for connection, msg in _messages(reader, connections, path):
             topic = connection.topic
             if connection.msgtype == TF:
-                tf.add(msg, f"{path} {topic}")
+                tf.add(msg, f"{path} {topic}", static=False)
                 continue
-            where = f"{path} {topic}@{_stamp(msg):.9f}"
+            stamp = header_stamp(msg)
+            where = f"{path} {topic}@{stamp:.9f}"
             if topic == odom_topic:
-                p = msg.pose.pose
-                pose = check_pose([p.position.x, p.position.y, _yaw(p.orientation)], where, "odometry pose")
-                odom = (_frame(msg.child_frame_id), pose)
+                places.add_odometry(msg, stamp, where)
             elif topic in range_topics:
                 latest[topic] = _range(msg, where, options.unit)
+                ring = None
             elif topic == scan_topic:
-                scans += 1
                 scan = _scan(msg, where, options.unit)
-                frame = _frame(msg.header.frame_id)
-                if odom_topic:
-                    if odom is None:
-                        continue
-                    base, robot = odom
-                    offset = tf.pose(frame, base)
-                    laser = compose(robot, np.zeros(3) if offset is None else offset)
-                else:
-                    base = options.base_frame
-                    placed = tf.pose(frame, options.world_frame)
-                    if placed is None:
-                        continue
-                    laser = placed
-                    robot = tf.pose(base, options.world_frame)
-                    robot = laser if robot is None else robot
-                sonar = _ring(latest, tf, base)
+                placed = places.scan(frame_name(msg.header.frame_id), stamp, where)
+                if placed is None:
+                    if index:
+                        raise LogError(
+                            f"{where}: no pose at or before the scan's stamp by {places.source} (kept: at least the "
+                            f"last {HISTORY_SECONDS:g} s of stamps), though the scans before it were placed: "
+                            "are the stamps out of order?"
+                        )
+                    skipped += 1
+                    continue
+                laser, flipped, robot, base = placed
+                angles, ranges = (-scan.angles[::-1], scan.ranges[::-1]) if flipped else (scan.angles, scan.ranges)
+                if latest and ring is None:
+                    ring = _ring(latest, tf, base, stamp, where, bool(tf_connections))
                 yield LogRecord(
-                    index, LaserScan(scan.stamp, laser, scan.angles, scan.ranges, scan.max_range), robot, sonar
+                    index, LaserScan(stamp, laser, angles, ranges, scan.max_range), robot, ring, skipped=skipped
                 )
                 index += 1
-        if scans and not index:
-            source = f"odometry on {odom_topic}" if odom_topic else f"tf to {options.world_frame!r}"
-            raise LogError(f"{path} {scan_topic}: none of the {scans} scans could be placed in the world by {source}")
+        if skipped and not index:
+            hint = "" if odom_topic else f" (the world frame: --world-frame; tf's topmost frames: {tf.roots()})"
+            raise LogError(
+                f"{path} {scan_topic}: none of the {skipped} scans could be placed in the world by {places.source}{hint}"
+            )
     finally:
         reader.close()
 
 
+class _Places:
+    """Where the robot and its laser were at a stamp: by odometry and tf, or by tf alone."""
+
+    def __init__(self, options: RosbagOptions, odom_topic: str, tf: TfBuffer, bag_has_tf: bool) -> None:
+        self.options = options
+        self.odometry = History() if odom_topic else None
+        self.tf = tf
+        self.bag_has_tf = bag_has_tf
+        self.source = f"odometry on {odom_topic}" if odom_topic else f"tf to {frame_name(options.world_frame)!r}"
+
+    def add_odometry(self, msg: Any, stamp: float, where: str) -> None:
+        """An Odometry message, checked: the robot's frame, 3D pose and 2D pose at its stamp."""
+        p = msg.pose.pose
+        pose3 = rigid(p.position, p.orientation, where, "odometry pose")
+        robot = robot_pose(pose3, where, "odometry pose")
+        assert self.odometry is not None
+        self.odometry.add(stamp, (frame_name(msg.child_frame_id), pose3, robot))
+
+    def scan(
+        self, frame: str, stamp: float, where: str
+    ) -> tuple[NDArray[np.float64], bool, NDArray[np.float64], str] | None:
+        """The laser's 2D pose, whether it is upside down, the robot's 2D pose and frame; None if not known yet."""
+        if self.odometry is not None:
+            at = self.odometry.at(stamp)
+            if at is None:
+                return None
+            base, robot3, robot = at
+            mount = self.tf.mount(frame, base, stamp, where, self.bag_has_tf)
+            if mount is None:
+                return None
+            laser, flipped = laser_pose(then(robot3, mount), where, frame)
+            return laser, flipped, robot, base
+        world, base = frame_name(self.options.world_frame), frame_name(self.options.base_frame)
+        placed = self.tf.pose(frame, world, stamp, where)
+        if placed is None:
+            return None
+        laser, flipped = laser_pose(placed, where, frame)
+        robot3 = self.tf.pose(base, world, stamp, where)
+        if robot3 is None:
+            return laser, flipped, laser, frame
+        return laser, flipped, robot_pose(robot3, where, f"pose of the robot's frame {base!r}"), base
+
+
 def _messages(reader: AnyReader, connections: list[Any], path: Path) -> Iterator[tuple[Any, Any]]:
     """The bag's messages on these connections, deserialized, in time order; a damaged one is a LogError."""
+    if not connections:  # rosbags reads every connection when given none
+        return
     messages = reader.messages(connections=connections)
     stamp = None
     while True:
@@ -262,36 +354,48 @@ def _scan(msg: Any, where: str, unit: Unit) -> LaserScan:
         raise LogError(f"{where}: LaserScan {exc}") from None
     ranges = geometry.ranges(raw, where)
     ranges[ranges < float(msg.range_min) * UNITS[unit]] = np.nan
-    return LaserScan(_stamp(msg), np.zeros(3), geometry.angles, ranges, geometry.max_range)
+    return LaserScan(header_stamp(msg), np.zeros(3), geometry.angles, ranges, geometry.max_range)
 
 
-def _range(msg: Any, where: str, unit: Unit) -> tuple[float, str, float, float, float]:
-    """Stamp, frame, range (m, NaN for no echo), maximum range (m) and field of view (rad) of a Range message."""
+def _range(msg: Any, where: str, unit: Unit) -> Reading:
+    """A Range message: its stamp, frame, range (m; NaN for no echo, ``min_range`` for too close), maximum range
+    (m) and field of view (rad)."""
     fov, low, high, value = (float(v) for v in (msg.field_of_view, msg.min_range, msg.max_range, msg.range))
     scale = UNITS[unit]
     if not (np.isfinite(fov) and 0 < fov < np.pi):
         raise LogError(f"{where}: Range field_of_view {fov:g} rad is not a beam width")
     if not (np.isfinite(high) and high > 0):
         raise LogError(f"{where}: Range max_range {high:g} is not a positive number")
+    if not (np.isfinite(low) and 0 <= low < high):
+        raise LogError(f"{where}: Range min_range {low:g} is not a number from 0 to max_range {high:g}")
     if np.isfinite(value) and (value < 0 or value > 2 * high):
         raise LogError(
             f"{where}: Range reading {value:g} {unit} is negative or over twice max_range {high:g}: "
             f"is the unit {unit!r} right?"
         )
-    echo = value * scale if np.isfinite(value) and low <= value < high else np.nan
-    return _stamp(msg), _frame(msg.header.frame_id), echo, high * scale, fov
+    if value == -np.inf or value < low:  # REP 117: an obstacle closer than the sensor can measure
+        echo = low * scale
+    elif value < high:
+        echo = value * scale
+    else:  # +inf, NaN, at or beyond max_range: no echo
+        echo = np.nan
+    return header_stamp(msg), frame_name(msg.header.frame_id), echo, high * scale, fov
 
 
-def _ring(latest: dict[str, tuple[float, str, float, float, float]], tf: _Tf, base: str) -> RangeReadings | None:
-    """The latest reading of every range topic, in topic order, as one ring on the robot."""
-    if not latest:
-        return None
+def _ring(
+    latest: dict[str, Reading], tf: TfBuffer, base: str, stamp: float, where: str, bag_has_tf: bool
+) -> RangeReadings:
+    """The latest reading of every range topic, in topic order, as one ring on the robot's ``base`` frame."""
     rows = [latest[t] for t in sorted(latest)]
-    placed = [tf.pose(frame, base) for _, frame, _, _, _ in rows]
-    offsets = np.array([np.zeros(3) if pose is None else pose for pose in placed])
+    offsets = []
+    for _, frame, _, _, _ in rows:
+        mount = tf.mount(frame, base, stamp, where, bag_has_tf)
+        if mount is None:
+            raise LogError(f"{where}: tf links the range sensor frame {frame!r} to {base!r} only after this scan")
+        offsets.append(sensor_pose(mount, where, frame))
     return RangeReadings(
         stamp=max(r[0] for r in rows),
-        offsets=offsets,
+        offsets=np.array(offsets),
         ranges=np.array([r[2] for r in rows]),
         max_range=max(r[3] for r in rows),
         beam_width=np.array([r[4] for r in rows]),

@@ -9,7 +9,8 @@ downstream knows which format a scan came from.
 - :class:`RangeReadings`: sonar (or any single-beam range sensor) readings, one
   beam or a ring, each beam with its pose on the robot and its width.
 - :class:`LogRecord`: one laser scan, the robot's pose and the latest sonar
-  readings seen up to the scan (None if the log has none).
+  readings seen up to the scan (None if the log has none), and how many scans
+  before it the reader could not place.
 - :class:`Log`: a re-iterable stream of records; each iteration reads the file
   anew, so a large log never sits in memory.
 - :class:`LaserGeometry`: the declared beam layout, units and maximum range of a
@@ -214,13 +215,19 @@ class LogRecord:
     index : 0-based number of the scan in the log (the ``pose_index`` of the pipeline).
     scan : the laser scan (its pose is the laser's).
     robot_pose : (3,) the robot's world pose at the scan.
-    sonar : the latest sonar readings up to the scan, or None.
+    sonar : the latest sonar readings up to the scan, or None. A reader hands the same
+        object to the records that follow until the log brings new readings, so
+        ``record.sonar is previous.sonar`` says that no reading came between two records
+        (their stamps may repeat: a logger may stamp them all 0).
+    skipped : how many scans of the log before this one the reader could not place (no
+        pose known for them), in all.
     """
 
     index: int
     scan: LaserScan
     robot_pose: NDArray[np.float64]
     sonar: RangeReadings | None = None
+    skipped: int = 0
 
 
 @dataclass(frozen=True)
