@@ -424,3 +424,18 @@ def test_a_range_too_close_to_measure_is_an_echo_at_min_range(tmp_path: Path) ->
     )
     with pytest.raises(LogError, match=re.escape("/sonar@1.050000000: Range min_range -1 is not a number from 0")):
         list(read_rosbag(bad))
+
+
+def test_a_few_readings_far_beyond_range_max_and_minus_inf_are_no_returns(tmp_path: Path) -> None:
+    """A driver reporting its no-returns as 60 m beyond a 30 m range_max, or a too-close beam as -inf (REP 117),
+    had the whole bag refused ("a smaller unit than the declared 'm'?"); most readings that far still are."""
+    path = write_bag(
+        bag_path(tmp_path, 1),
+        1,
+        [
+            ("/odom", "nav_msgs/msg/Odometry", 1.0, odometry(1.0, 0.0, 0.0, 0.0)),
+            ("/scan", "sensor_msgs/msg/LaserScan", 1.1, scan(1.1, [2.0, 65.5, -np.inf, 2.0, 2.0])),
+        ],
+    )
+    (record,) = list(read_rosbag(path))
+    assert np.isnan(record.scan.ranges[[1, 2]]).all() and (record.scan.ranges[[0, 3, 4]] == 2.0).all()

@@ -65,7 +65,7 @@ MIN_PLAUSIBLE_MEDIAN = 0.05
 """A scan of ten or more returns whose median range is below this (m) was surely logged in a larger unit."""
 
 MAX_PLAUSIBLE_FACTOR = 2.0
-"""A reading above this many maximum ranges was surely logged in a smaller unit."""
+"""Readings of median above this many maximum ranges were surely logged in a smaller unit."""
 
 
 class LogError(ValueError):
@@ -306,9 +306,11 @@ class LaserGeometry:
         """Raw readings (strings or numbers, in ``unit``) as metres with NaN for no return, checked.
 
         Refused with a :class:`LogError` naming ``where``: a wrong count, a word
-        that is no number, a negative reading, a reading over
-        :data:`MAX_PLAUSIBLE_FACTOR` maximum ranges (a smaller unit than declared),
-        ten or more returns of median below :data:`MIN_PLAUSIBLE_MEDIAN` m (a larger unit).
+        that is no number, a negative reading (``-inf``, too close to measure, is no
+        return), finite readings of median over :data:`MAX_PLAUSIBLE_FACTOR` maximum
+        ranges (a smaller unit than declared; a few such readings are no returns, as
+        drivers report them), ten or more returns of median below
+        :data:`MIN_PLAUSIBLE_MEDIAN` m (a larger unit).
         """
         try:
             raw = np.asarray(words, dtype=float)
@@ -317,14 +319,16 @@ class LaserGeometry:
         if raw.shape != (self.count,):
             raise LogError(f"{where}: {raw.size} range readings, the laser has {self.count} beams")
         r = raw * UNITS[self.unit]
-        negative = np.flatnonzero(r < 0)
+        negative = np.flatnonzero(np.isfinite(r) & (r < 0))  # -inf: too close to measure (REP 117), no return
         if len(negative):
             raise LogError(f"{where}: reading {negative[0]} is negative ({raw[negative[0]]:g} {self.unit})")
-        far = np.flatnonzero(np.isfinite(r) & (r > MAX_PLAUSIBLE_FACTOR * self.max_range))
-        if len(far):
+        finite = r[np.isfinite(r)]
+        if len(finite) and np.median(finite) > MAX_PLAUSIBLE_FACTOR * self.max_range:
+            # one far reading is a driver's "no return" (a Hokuyo's 60 m beyond its 5.6 m); most is a unit
             raise LogError(
-                f"{where}: reading {far[0]} is {r[far[0]]:g} m, over {MAX_PLAUSIBLE_FACTOR:g} times the maximum range "
-                f"({self.max_range:g} m): are the ranges in a smaller unit than the declared {self.unit!r}?"
+                f"{where}: the median reading is {np.median(finite):g} m, over {MAX_PLAUSIBLE_FACTOR:g} times the "
+                f"maximum range ({self.max_range:g} m): are the ranges in a smaller unit than the declared "
+                f"{self.unit!r}?"
             )
         r = np.where(np.isfinite(r) & (r > 0) & (r < self.max_range), r, np.nan)
         returned = r[~np.isnan(r)]
