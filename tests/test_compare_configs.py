@@ -175,3 +175,26 @@ def test_a_config_whose_source_reads_a_feature_no_sensor_computes_is_refused_by_
     path.write_text(yaml.safe_dump(data))
     with pytest.raises(InputError, match=rf"{path}: sources\.infrared\.feature: reads feature 'ir_returns'"):
         resolve_config(str(path))
+
+
+def test_a_config_s_figures_do_not_depend_on_the_configs_it_is_compared_with(tmp_path):
+    """The glass, the stripe's sight and the sunlight seen twice were judged with the first config's sensors for
+    every config: a config with a shorter-sighted stripe got the paper's."""
+    import yaml
+
+    from evmap import configs
+    from evmap.maps.app.compare_runner import compare_world
+
+    data = yaml.safe_load(configs.path("paper.yaml").read_text())
+    data["sensors"]["lsl"]["max_range"] = 3.0
+    short = tmp_path / "short.yaml"
+    short.write_text(yaml.safe_dump(data))
+    params = WorldGenParams(single_pose_share=0)
+    alone = compare_world(2, 7, ["dempster"], [str(short)], params).rows
+    beside = [
+        r for r in compare_world(2, 7, ["dempster"], ["paper", str(short)], params).rows if r["config"] == str(short)
+    ]
+    drop = ("seconds_per_world", "seconds_simulate")
+    assert [{k: v for k, v in r.items() if k not in drop} for r in beside] == [
+        {k: v for k, v in r.items() if k not in drop} for r in alone
+    ]

@@ -131,9 +131,10 @@ DEFINITIONS = {
         f"unobstructed, that have an unidentified object within {GLASS_RADIUS} m"
     ),
     "mean_conflict": (
-        "mean conflict K between the sonar and the LSL masses over all the segments the LSL returned "
-        "(a property of the evidence: equal for every rule from one pose; from a tour's later poses it "
-        "depends on the map each rule has built)"
+        "mean conflict K among the noise-elimination stage's sources (the paper's config: the sonar and the "
+        "LSL length; the default's: its four sources) over all the segments the LSL returned (a property of "
+        "each config's evidence: equal for every rule from one pose; from a tour's later poses it depends on the "
+        "map each rule has built)"
     ),
     "map_error": (
         f"mean distance (m) to the nearest true surface of points every {MAP_ERROR_STEP} m along the final lines "

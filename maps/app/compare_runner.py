@@ -25,7 +25,7 @@ from typing import Any
 
 from evidential import RULES
 from evmap.maps.app.compare_args import SYNCHRONOUS_BELOW
-from evmap.maps.app.compare_configs import config_names, resolve_config
+from evmap.maps.app.compare_configs import config_names, resolve_config, sensing_key
 from evmap.maps.app.compare_executors import executor, interrupts_between_waits
 from evmap.maps.app.compare_hazards import stripe_seen, sunlight_seen_twice
 from evmap.maps.app.compare_metrics import (
@@ -99,18 +99,26 @@ def compare_world(
     name = f"world-{index:04d}"
     scenario = generate_world(world_seed(seed, index), params, name=name)
     runs = fuse_configs(scenario, {c: resolve_config(c) for c in configs}, rules)
-    first = next(iter(runs.values()))
-    glass = visible_glass(first.world, first.config)
-    heard = heard_glass(first.world, [obs.sonar for obs in first.observations])  # the same scans for every config
-    seen = stripe_seen(first.world, first.config)
-    twice = int(sunlight_seen_twice(first.world, first.config))
+    by_sensing: dict[str, tuple[Any, Any, Any, int]] = {}  # what the world offers a config's sensors
+    offered = {}
+    for c in configs:
+        run = runs[c, rules[0]]  # every rule of a config fuses its scans
+        key = sensing_key(run.config)
+        if key not in by_sensing:
+            by_sensing[key] = (
+                visible_glass(run.world, run.config),
+                stripe_seen(run.world, run.config),
+                heard_glass(run.world, [obs.sonar for obs in run.observations]),
+                int(sunlight_seen_twice(run.world, run.config)),
+            )
+        offered[c] = by_sensing[key]
     rows = tuple(
         {
             "world": name,
             "config": c,
             "rule": rule,
-            **world_metrics(run, glass, seen, heard),
-            "sunlight_seen_twice": twice,
+            **world_metrics(run, *offered[c][:3]),
+            "sunlight_seen_twice": offered[c][3],
         }
         for (c, rule), run in runs.items()
     )
