@@ -387,9 +387,9 @@ def markdown_table(rows: Sequence[dict[str, Any]], columns: Sequence[str], specs
         cells = []
         for c in columns:
             spec = (specs or {}).get(c, ".3f")
-            cell = "" if row[c] is None else format(row[c], spec)
+            cell = "" if row[c] is None else _shown(row[c], spec)
             if row.get(f"{c}_lo") is not None:
-                cell += f" [{row[f'{c}_lo']:{spec}}, {row[f'{c}_hi']:{spec}}]"
+                cell += f" [{_shown(row[f'{c}_lo'], spec)}, {_shown(row[f'{c}_hi'], spec)}]"
             cells.append(cell)
         out.append("| " + " | ".join([row["config"], row["rule"], *cells]) + " |")
     return "\n".join(out)
@@ -415,3 +415,9 @@ def _differences_markdown(comparison: Comparison) -> list[str]:
 
 def _cell(value: Any) -> Any:
     return "" if value is None else value
+
+
+def _shown(value: float, spec: str) -> str:
+    """``value`` formatted by ``spec``, a value that rounds to zero as 0 (never "-0.000")."""
+    text = format(value, spec)
+    return format(0.0, spec) if float(text) == 0 else text
