@@ -5,10 +5,10 @@ Every configuration and scenario file enters the product through :func:`read_doc
 :data:`MAX_FILE_BYTES` bytes (at most that many plus one are read, so ``/dev/zero`` or a
 FIFO costs nothing); the YAML is parsed with a safe loader (libyaml's ``CSafeLoader``
 where installed, else PyYAML's ``SafeLoader``: no object-constructing tags, duplicate
-keys refused, standard merge keys ``<<`` supported, plain scalars read as YAML 1.2's core schema has them:
-``1e8`` a number, ``045`` forty-five, ``0o17`` octal, ``yes``, ``8_0``, ``0b10``, ``1:20`` and dates strings), and the
-composed document is
-measured before anything is constructed: at most :data:`MAX_DEPTH` levels of nesting
+keys refused, standard merge keys ``<<`` supported, plain scalars read as YAML 1.2's core
+schema has them: ``1e8`` a number, ``045`` forty-five, ``0o17`` octal, ``yes``, ``8_0``,
+``0b10``, ``1:20`` and dates strings), and the composed document is measured before
+anything is constructed: at most :data:`MAX_DEPTH` levels of nesting
 and :data:`MAX_NODES` nodes once aliases are expanded (an alias bomb is refused in
 milliseconds), no alias inside the node it names. A :class:`Document` then validates
 its data against a pydantic model. Any problem raises :class:`InputError`, whose message
@@ -307,7 +307,8 @@ def parse_document(text: str, name: str) -> Document:
         problem = exc.problem or exc.context
         if problem and "maximum nesting depth" in problem:  # libyaml's own limit (1000), met before ours is measured
             problem = f"nesting deeper than the limit of {MAX_DEPTH}"
-        if mark and text.splitlines()[mark.line : mark.line + 1] and "\t" in text.splitlines()[mark.line]:
+        lines = text.splitlines()
+        if mark and mark.line < len(lines) and "\t" in lines[mark.line]:
             problem = f"{problem} (a tab: YAML indents with spaces only)"
         raise InputError(f"{name}: {where}: {problem}") from None
     except yaml.YAMLError as exc:
