@@ -400,17 +400,12 @@ def _differences_markdown(comparison: Comparison) -> list[str]:
     if not comparison.differences:
         return []
     base = comparison.label(comparison.variants[0])
-    out = [
-        "",
-        (
-            f"Paired differences from `{base}`: the mean over the worlds of each one's value less `{base}`'s on "
-            f"the same world, with its {CONFIDENCE:.0%} Student t interval (the spread of the worlds themselves "
-            "cancels out)."
-        ),
-        "",
-        markdown_table(comparison.differences, FIGURES, dict.fromkeys(FIGURES, "+.3f")),
-    ]
-    return out
+    intro = (
+        f"Paired differences from `{base}`: the mean over the worlds of each one's value less `{base}`'s on "
+        f"the same world, with its {CONFIDENCE:.0%} Student t interval (the spread of the worlds themselves "
+        "cancels out)."
+    )
+    return ["", intro, "", markdown_table(comparison.differences, FIGURES, dict.fromkeys(FIGURES, "+.3f"))]
 
 
 def _cell(value: Any) -> Any:
