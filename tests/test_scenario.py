@@ -74,7 +74,7 @@ BAD = [
     ("sunlight_range.yaml", "world.sunlight[0].length", "need 1e-06 m <= min <= max, got min 0.4 and max 0.2"),
     ("sunlight_tiny.yaml", "world.sunlight[0].length", "need 1e-06 m <= min <= max, got min 1e-16"),
     ("sunlight_too_long.yaml", "world.sunlight[0].length", "too long for the polygon"),
-    ("sunlight_polygon.yaml", "world.sunlight[0].polygon", "not a simple polygon"),
+    ("sunlight_polygon.yaml", "world.sunlight[0].polygon", "not a simple polygon: self-intersection at (1, 1)"),
     ("sensor_key.yaml", "sensors.lsl.fov", "unknown key"),
     ("sonar_step.yaml", "sensors.sonar.step_deg", "greater than or equal to 0.1"),
     ("version.yaml", "version", "unsupported version: this program reads version 1"),

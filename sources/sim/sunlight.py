@@ -8,6 +8,8 @@ The polygon is handled relative to its first vertex, so a region far from the or
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import shapely
 from numpy.typing import NDArray
@@ -46,9 +48,13 @@ class Sunlight(SpecModel):
     @field_validator("polygon")
     @classmethod
     def _simple_polygon(cls, polygon: list[Point]) -> list[Point]:
-        shape = shapely.Polygon(np.subtract(polygon, polygon[0]))
+        shape = shapely.Polygon(np.subtract(polygon, polygon[0]))  # about its first vertex: exact arithmetic
         if not shape.is_valid:
-            raise ValueError(f"not a simple polygon: {shapely.is_valid_reason(shape)}")
+            reason = re.fullmatch(r"(.*)\[(\S+) (\S+)\]", shapely.is_valid_reason(shape))  # GEOS: "Why[x y]"
+            where = (
+                f" at ({float(reason[2]) + polygon[0][0]:g}, {float(reason[3]) + polygon[0][1]:g})" if reason else ""
+            )
+            raise ValueError(f"not a simple polygon: {reason[1].lower() if reason else 'invalid'}{where}")
         if shape.area <= 0:
             raise ValueError("the polygon has no area")
         return polygon
