@@ -368,4 +368,6 @@ def _describe(err: Any) -> str:
         return "required item is missing" if isinstance(err["loc"][-1], int) else "required key is missing"
     if isinstance(err.get("input"), dict):  # a section's own check: its line says where, its text is long
         return msg
+    if err["type"] == "bool_type" and str(err.get("input")).lower() in {"yes", "no", "on", "off", "y", "n"}:
+        return f"{msg} (got {err['input']!r}: YAML 1.2 writes true or false)"
     return f"{msg} (got {shown(err.get('input'))})"

@@ -368,3 +368,11 @@ def test_an_empty_file_and_a_tab_are_named_as_such(tmp_path: Path) -> None:
         load_config(empty)
     with pytest.raises(InputError, match=r"t.yaml: line 2, column 1: .* \(a tab: YAML indents with spaces only\)"):
         parse_document("a:\n\tb: 1\n", "t.yaml")
+
+
+def test_a_yaml_1_1_boolean_is_refused_saying_how_yaml_1_2_writes_it(tmp_path: Path) -> None:
+    text = configs.path("default.yaml").read_text().replace("drawn_apart: true", "drawn_apart: yes")
+    path = tmp_path / "yes.yaml"
+    path.write_text(text)
+    with pytest.raises(InputError, match=r"corners\.drawn_apart: .* \(got 'yes': YAML 1\.2 writes true or false\)"):
+        load_config(path)
