@@ -345,3 +345,15 @@ def test_carmen_raw_scans_before_the_first_odometry_are_counted(tmp_path):
     path = tmp_path / "raw.log"
     path.write_text(f"{raw}\n{raw}\nODOM 1 2 0.1 0 0 0 4.0 host 4.0\n{raw}\n{raw}\n")
     assert [r.skipped for r in open_log(path)] == [2, 2]
+
+
+def test_evmap_log_takes_the_unit_of_the_log_s_ranges(tmp_path, capsys):
+    """A log in millimetres was refused ("a smaller unit than the declared 'm'?") with no way to declare it."""
+    log = tmp_path / "mm.log"
+    ranges = " ".join(["2000"] * 181)
+    log.write_text(f"FLASER 181 {ranges} 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0\n")
+    assert main(["log", str(log), "--out", str(tmp_path / "m"), "--figures", "none"]) == 2
+    assert "smaller unit than the declared 'm'" in capsys.readouterr().err
+    out = tmp_path / "mm"
+    assert main(["log", str(log), "--out", str(out), "--figures", "none", "--unit", "mm", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["scans"] == 1

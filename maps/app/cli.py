@@ -6,7 +6,7 @@
     (``--figures png|svg|pdf|none``, default png; ``--no-figures`` is ``none``)
     into DIR (``docs/SCENARIO.md``); ``--json`` also prints the report on
     standard output, and nothing else goes there.
-``evmap log FILE [--out DIR] [--every N] [--limit N] [--readings DIR] [--config FILE] [--rule NAME] [--json] [--figures FORMAT] [--force] [--scan-topic T] [--odom-topic T] [--range-topics T,...] [--world-frame F] [--base-frame F]``
+``evmap log FILE [--out DIR] [--every N] [--limit N] [--unit U] [--readings DIR] [--config FILE] [--rule NAME] [--json] [--figures FORMAT] [--force] [--scan-topic T] [--odom-topic T] [--range-topics T,...] [--world-frame F] [--base-frame F]``
     a belief map from a robot log (CARMEN, g2o, ROS bag; poses from the log,
     the laser as the contour sensor) with a progress bar on standard error:
     the same artefacts as ``run``, and the ROS map pair ``map.pgm``/``map.yaml``
@@ -180,6 +180,7 @@ def build_parser() -> argparse.ArgumentParser:
     log.add_argument("--out", default="out", help="directory for the artefacts (default: out)")
     log.add_argument("--every", type=int, default=1, help="use every N-th laser scan (default: 1, all)")
     log.add_argument("--limit", type=int, help="use at most N scans")
+    log.add_argument("--unit", choices=["m", "cm", "mm"], default="m", help="unit of the log's ranges (default: m)")
     log.add_argument(
         "--readings",
         metavar="DIR",
@@ -336,7 +337,14 @@ def log_command(args: argparse.Namespace) -> int:
     with prepare_out(args.out, args.force) as staging:  # --out checked and claimed before the work
         print(f"evmap: mapping log {args.file} with rule {cfg.rule!r}", file=sys.stderr)
         run = run_log(
-            args.file, cfg, every=args.every, limit=args.limit, progress=bar, readings=args.readings, rosbag=rosbag
+            args.file,
+            cfg,
+            every=args.every,
+            limit=args.limit,
+            progress=bar,
+            readings=args.readings,
+            rosbag=rosbag,
+            unit=args.unit,
         )
         summary = write_staged(run, staging, figures=args.figures != "none", figure_format=args.figures)
     fit = summary["line_fit"]

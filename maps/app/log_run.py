@@ -43,6 +43,7 @@ from evmap.sources.config_model import Config
 from evmap.sources.laser import LaserParams
 from evmap.sources.line_fit import log_fit, scan_fit
 from evmap.sources.logs import LogRecord, RangeReadings, RosbagOptions, open_log
+from evmap.sources.logs.scan import Unit
 from evmap.sources.sensor_kinds import read_readings
 
 __all__ = ["run_log"]
@@ -63,10 +64,12 @@ def run_log(
     progress: Progress | None = None,
     readings: str | Path | None = None,
     rosbag: RosbagOptions | None = None,
+    unit: Unit = "m",
 ) -> Run:
     """Fold every ``every``-th scan of the log at ``path`` (at most ``limit``) into one belief map.
 
     ``rosbag``: the topics and frames of a ROS bag (None: found in the bag); refused for another log.
+    ``unit``: the unit of the log's ranges (``evmap log --unit``).
 
     Raises :class:`~evmap.sources.logs.LogError` (a ValueError naming the file and
     line) for what the log's reader cannot read, and a ValueError naming the file
@@ -78,7 +81,7 @@ def run_log(
         raise ValueError(f"--limit must be at least 1, got {limit}")
     _check_readings(config, readings)
     laser = laser or LaserParams()
-    log = open_log(path, rosbag=rosbag)
+    log = open_log(path, unit, rosbag=rosbag)
     records: Iterable[LogRecord] = islice(_every(iter(log), every), limit)
     if progress is not None:
         records = progress(records)

@@ -328,13 +328,13 @@ class LaserGeometry:
             raise LogError(
                 f"{where}: the median reading is {np.median(finite):g} m, over {MAX_PLAUSIBLE_FACTOR:g} times the "
                 f"maximum range ({self.max_range:g} m): are the ranges in a smaller unit than the declared "
-                f"{self.unit!r}?"
+                f"{self.unit!r} (evmap log --unit)?"
             )
         r = np.where(np.isfinite(r) & (r > 0) & (r < self.max_range), r, np.nan)
         returned = r[~np.isnan(r)]
         if len(returned) >= 10 and np.median(returned) < MIN_PLAUSIBLE_MEDIAN:
             raise LogError(
                 f"{where}: median range {np.median(returned):g} m is implausibly short: "
-                f"are the ranges in a larger unit than the declared {self.unit!r}?"
+                f"are the ranges in a larger unit than the declared {self.unit!r} (evmap log --unit)?"
             )
         return r
