@@ -106,6 +106,15 @@ class OccupancyParams(BaseModel):
     )
 
 
+def _checked(params: OccupancyParams | None) -> OccupancyParams:
+    """``params``, or the defaults for None; anything else is a TypeError (a dict had no attribute 'padding')."""
+    if params is None:
+        return OccupancyParams()
+    if not isinstance(params, OccupancyParams):
+        raise TypeError(f"params must be an OccupancyParams (or None), got {type(params).__name__}")
+    return params
+
+
 def grid_geometry(
     bounds: tuple[float, float, float, float], resolution: float, params: OccupancyParams
 ) -> tuple[tuple[float, float], tuple[int, int]]:
@@ -118,9 +127,9 @@ def grid_geometry(
         raise ValueError(f"resolution must be a positive number of metres, got {resolution!r}")
     xmin, ymin, xmax, ymax = bounds
     origin = (xmin - params.padding, ymin - params.padding)
-    shape = (
-        int(np.ceil(round((ymax - ymin + 2 * params.padding) / resolution, 9))),
-        int(np.ceil(round((xmax - xmin + 2 * params.padding) / resolution, 9))),
+    shape = (  # one cell at least, however coarse the resolution
+        max(1, int(np.ceil(round((ymax - ymin + 2 * params.padding) / resolution, 9)))),
+        max(1, int(np.ceil(round((xmax - xmin + 2 * params.padding) / resolution, 9)))),
     )
     if shape[0] * shape[1] > params.max_cells:
         raise ValueError(
@@ -261,7 +270,7 @@ def evidential_grid(
     >>> m[0, 0].tolist(), m[1, 1].round(3).tolist(), m[2, 2].round(3).tolist()
     ([0.0, 0.0, 0.0, 1.0], [0.0, 0.7, 0.0, 0.3], [0.0, 0.0, 0.8, 0.2])
     """
-    params = params or OccupancyParams()
+    params = _checked(params)
     origin, shape = grid_geometry(bounds, resolution, params)
     p = np.asarray(p, dtype=float).reshape(-1, 2)
     q = np.asarray(q, dtype=float).reshape(-1, 2)
@@ -301,7 +310,7 @@ def occupancy_from_masses(masses: NDArray[np.float64], params: OccupancyParams |
     >>> occupancy_from_masses(masses, OccupancyParams(unknown="blocked")).tolist()
     [[15, 90, 100]]
     """
-    params = params or OccupancyParams()
+    params = _checked(params)
     normal = 1.0 - masses[..., 0]
     known = (masses[..., _EITHER] <= params.ignorance_threshold) & (normal > 0)
     betp = (masses[..., _OCCUPIED] + 0.5 * masses[..., _EITHER]) / np.where(known, normal, 1.0)

@@ -124,6 +124,13 @@ def test_params_are_validated_and_documented():
         grid_geometry((0, 0, 100, 100), 0.001, OccupancyParams())
 
 
+def test_a_resolution_coarser_than_the_map_and_params_of_another_type_are_answered_clearly(l_room):
+    """A resolution of 1e300 m made an empty grid and an IndexError; a dict of params an AttributeError."""
+    assert l_room.occupancy_grid(1e300).shape == (1, 1)
+    with pytest.raises(TypeError, match="params must be an OccupancyParams \\(or None\\), got dict"):
+        l_room.occupancy_grid(0.05, {"unknown": "blocked"})
+
+
 @pytest.fixture
 def l_room() -> BeliefMap:
     """An asymmetric room: a long wall at the bottom (y = 0), a short one up the left side, a target top right."""
