@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 from evidential import RULES, Frame, MassFunction
 from evmap.maps import map_file, map_json, occupancy, planner
 from evmap.maps.all_or_nothing import all_or_nothing
-from evmap.maps.free_space import free_space
+from evmap.maps.free_space import free_space, surface_points
 from evmap.maps.map_checks import check_extras
 from evmap.maps.map_format import GRAPH_KEYS, ID_PREFIXES, SCHEMA_VERSION, MapParts
 from evmap.maps.map_objects import MapObjects
@@ -345,13 +345,14 @@ class BeliefMap:
         unknown: str = "blocked",
     ) -> bool:
         """:func:`evmap.maps.planner.is_segment_clear`: no obstacle near ``a``-``b``; unknown space, outside
-        the occupancy grid's free space (:func:`evmap.maps.free_space.free_space`), blocked by default.
+        the occupancy grid's free space (:func:`evmap.maps.free_space.free_space`), blocked by default, and then
+        ``clearance`` kept from every surface the stripe measured too (:func:`evmap.maps.free_space.surface_points`).
 
         That free space is made once per version of the map: the first blocked query after a change costs what
         the occupancy grid does (seconds on the map of a whole log; README, planner), the next ones a fraction
         of a millisecond."""
-        free = free_space(self) if unknown == "blocked" else None
-        return planner.is_segment_clear(self, a, b, clearance, min_belief, unknown, free)
+        free, surfaces = (free_space(self), surface_points(self)) if unknown == "blocked" else (None, None)
+        return planner.is_segment_clear(self, a, b, clearance, min_belief, unknown, free, surfaces)
 
     def occupancy_masses(
         self, resolution: float = 0.05, params: OccupancyParams | None = None

@@ -51,7 +51,7 @@ from evmap.sources.rcd import extract_rcds
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["FreeSpaceParams", "contour_bound", "free_space", "ray_fan", "shadows", "surface_rays"]
+__all__ = ["FreeSpaceParams", "contour_bound", "free_space", "ray_fan", "shadows", "surface_points", "surface_rays"]
 
 
 @dataclass(frozen=True)
@@ -246,6 +246,33 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
     union = shapely.union_all(pieces)
     polygons = [g for g in shapely.get_parts(union) if isinstance(g, shapely.Polygon) and not g.is_empty]
     return shapely.union_all(polygons) if polygons else shapely.Polygon()
+
+
+def surface_points(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shapely.STRtree:
+    """Every point the remembered poses' stripes measured on a surface, in an STRtree made once per map version.
+
+    The rays' ends, less those on segments the pose's judgement called noise (sunlit pixels, not surfaces,
+    within ``margin``). A wall the stripe met at a grazing angle may give no line, and the free space of the
+    rays in front of it then reaches within millimetres of it; its points still say that a surface is there
+    (:func:`evmap.maps.planner.is_segment_clear` keeps its clearance from them).
+    """
+    params = params or FreeSpaceParams()
+    kept = _POINTS.get(bm)
+    if kept is not None and kept[0] == bm.version and kept[1] == params:
+        return kept[2]
+    store, found = bm.segments, [np.zeros((0, 2))]
+    for s in sensed(bm):
+        noise = np.flatnonzero((store.pose == s.pose_index) & store.eliminated)
+        on = surface_rays(s, store.p[noise], store.q[noise], params.margin, on=False)
+        ok = np.isfinite(on.range)
+        found.append(on.origin + on.range[ok, None] * np.column_stack([np.cos(on.bearing[ok]), np.sin(on.bearing[ok])]))
+    tree = shapely.STRtree(shapely.points(np.concatenate(found)))
+    _POINTS[bm] = (bm.version, params, tree)
+    return tree
+
+
+_POINTS: WeakKeyDictionary[BeliefMap, tuple[int, FreeSpaceParams, shapely.STRtree]] = WeakKeyDictionary()
+"""Each map's surface points, with the map's version and the parameters they were found with."""
 
 
 def _object_faces(

@@ -286,13 +286,16 @@ def is_segment_clear(
     min_belief: float = 0.5,
     unknown: str = "blocked",
     free: shapely.Geometry | None = None,
+    surfaces: shapely.STRtree | None = None,
 ) -> bool:
     """True if the straight path ``a``-``b`` is clear: no obstacle with belief at least ``min_belief``
     within ``clearance`` of it, and, with ``unknown="blocked"`` (the default), the whole path in the
     free space the map knows, ``free`` (:meth:`BeliefMap.is_segment_clear` gives the occupancy grid's,
     :func:`evmap.maps.free_space.free_space`: the sensors' free space short of believed surfaces, made once
     per version of the map; the map's stored open space when not given): a path into space no sensor saw
-    free is not clear.
+    free is not clear; nor is one within ``clearance`` of a point of ``surfaces``, the surfaces the sensors
+    measured whether or not the map has a line there (:meth:`BeliefMap.is_segment_clear` gives the stripe's,
+    :func:`evmap.maps.free_space.surface_points`).
 
     With ``unknown="free"`` only known obstacles count, and a path may leave the building.
 
@@ -312,6 +315,8 @@ def is_segment_clear(
     tree = obstacle_tree(bm, belief_level(min_belief))
     path = _geometries(a[None], b[None])[0]
     if unknown == "blocked" and not (bm.open_space if free is None else free).covers(path):
+        return False
+    if unknown == "blocked" and surfaces is not None and len(surfaces.query(path, "dwithin", distance=clearance)):
         return False
     hits = tree.tree.query(path, predicate="dwithin", distance=clearance).tolist()
     if any(tree.tree_ids[i] not in tree.dirty for i in hits):
