@@ -35,7 +35,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
 
 import numpy as np
@@ -198,26 +198,43 @@ def free_space(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shapely.
     Made once per version of the map (and ``params``), prepared for queries: the occupancy grid and the
     planner's test of unknown space (:func:`evmap.maps.planner.is_segment_clear`) read the same geometry.
     """
-    params = params or FreeSpaceParams()
-    kept = _MADE.get(bm)
-    if kept is not None and kept[0] == bm.version and kept[1] == params:
-        return kept[2]
-    made = _free_space(bm, params)
-    shapely.prepare(made)
-    _MADE[bm] = (bm.version, params, made)
-    return made
+    return _once(_MADE, bm, params or FreeSpaceParams(), _free_space)
 
 
-_MADE: WeakKeyDictionary[BeliefMap, tuple[int, FreeSpaceParams, shapely.Geometry]] = WeakKeyDictionary()
+_MADE: WeakKeyDictionary[BeliefMap, tuple[int, FreeSpaceParams, Any]] = WeakKeyDictionary()
 """Each map's free space, with the map's version and the parameters it was made for."""
+
+_POINTS: WeakKeyDictionary[BeliefMap, tuple[int, FreeSpaceParams, Any]] = WeakKeyDictionary()
+"""Each map's surface points, with the map's version and the parameters they were found with."""
+
+
+def _once(
+    cache: WeakKeyDictionary[BeliefMap, tuple[int, FreeSpaceParams, Any]],
+    bm: BeliefMap,
+    params: FreeSpaceParams,
+    make: Callable[[BeliefMap, FreeSpaceParams], Any],
+) -> Any:
+    """``make(bm, params)``, made again only when the map's version or the parameters changed."""
+    kept = cache.get(bm)
+    if kept is None or kept[0] != bm.version or kept[1] != params:
+        kept = cache[bm] = (bm.version, params, make(bm, params))
+    return kept[2]
+
+
+def _surfaces(s: Sensed, bm: BeliefMap, margin: float) -> Sensed:
+    """The pose's readings less the rays ending on its segments judged noise (sunlit pixels, not surfaces)."""
+    store = bm.segments
+    noise = np.flatnonzero((store.pose == s.pose_index) & store.eliminated)
+    return surface_rays(s, store.p[noise], store.q[noise], margin, on=False)
 
 
 def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
-    """:func:`free_space`, made anew."""
+    """:func:`free_space`, made anew and prepared."""
     poses = sensed(bm)
     if not poses:
+        shapely.prepare(bm.open_space)
         return bm.open_space
-    config, store = bm.config, bm.segments
+    config = bm.config
     believed = lines(bm, params.min_belief)
     p = np.array([ln.p for ln in believed], dtype=float).reshape(-1, 2)
     q = np.array([ln.q for ln in believed], dtype=float).reshape(-1, 2)
@@ -229,9 +246,7 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
         seen = [ray_fan(s, params)]
         if s.sonar is not None:
             sonar = open_space(s.sonar, extract_rcds(s.sonar, config.rcd, primitive=True), config.open_space)
-            noise = np.flatnonzero((store.pose == s.pose_index) & store.eliminated)
-            surfaces = surface_rays(s, store.p[noise], store.q[noise], params.margin, on=False)
-            bound = contour_bound(surfaces, params, s.sonar.params.max_range + 1.0)
+            bound = contour_bound(_surfaces(s, bm, params.margin), params, s.sonar.params.max_range + 1.0)
             seen.append(sonar if bound is None else shapely.intersection(sonar, bound))
         free = shapely.union_all(seen)
         if len(p) and not free.is_empty:
@@ -245,7 +260,9 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
         pieces.append(free)
     union = shapely.union_all(pieces)
     polygons = [g for g in shapely.get_parts(union) if isinstance(g, shapely.Polygon) and not g.is_empty]
-    return shapely.union_all(polygons) if polygons else shapely.Polygon()
+    made = shapely.union_all(polygons) if polygons else shapely.Polygon()
+    shapely.prepare(made)
+    return made
 
 
 def surface_points(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shapely.STRtree:
@@ -256,23 +273,17 @@ def surface_points(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shap
     rays in front of it then reaches within millimetres of it; its points still say that a surface is there
     (:func:`evmap.maps.planner.is_segment_clear` keeps its clearance from them).
     """
-    params = params or FreeSpaceParams()
-    kept = _POINTS.get(bm)
-    if kept is not None and kept[0] == bm.version and kept[1] == params:
-        return kept[2]
-    store, found = bm.segments, [np.zeros((0, 2))]
+    return _once(_POINTS, bm, params or FreeSpaceParams(), _surface_points)
+
+
+def _surface_points(bm: BeliefMap, params: FreeSpaceParams) -> shapely.STRtree:
+    """:func:`surface_points`, found anew."""
+    found = [np.zeros((0, 2))]
     for s in sensed(bm):
-        noise = np.flatnonzero((store.pose == s.pose_index) & store.eliminated)
-        on = surface_rays(s, store.p[noise], store.q[noise], params.margin, on=False)
+        on = _surfaces(s, bm, params.margin)
         ok = np.isfinite(on.range)
         found.append(on.origin + on.range[ok, None] * np.column_stack([np.cos(on.bearing[ok]), np.sin(on.bearing[ok])]))
-    tree = shapely.STRtree(shapely.points(np.concatenate(found)))
-    _POINTS[bm] = (bm.version, params, tree)
-    return tree
-
-
-_POINTS: WeakKeyDictionary[BeliefMap, tuple[int, FreeSpaceParams, shapely.STRtree]] = WeakKeyDictionary()
-"""Each map's surface points, with the map's version and the parameters they were found with."""
+    return shapely.STRtree(shapely.points(np.concatenate(found)))
 
 
 def _object_faces(
