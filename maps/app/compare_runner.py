@@ -99,26 +99,26 @@ def compare_world(
     name = f"world-{index:04d}"
     scenario = generate_world(world_seed(seed, index), params, name=name)
     runs = fuse_configs(scenario, {c: resolve_config(c) for c in configs}, rules)
-    by_sensing: dict[str, tuple[Any, Any, Any, int]] = {}  # what the world offers a config's sensors
+    by_sensing: dict[str, tuple[dict[str, Any], int]] = {}  # what the world offers a config's sensors
     offered = {}
     for c in configs:
         run = runs[c, rules[0]]  # every rule of a config fuses its scans
         key = sensing_key(run.config)
         if key not in by_sensing:
-            by_sensing[key] = (
-                visible_glass(run.world, run.config),
-                stripe_seen(run.world, run.config),
-                heard_glass(run.world, [obs.sonar for obs in run.observations]),
-                int(sunlight_seen_twice(run.world, run.config)),
-            )
+            judged = {
+                "glass": visible_glass(run.world, run.config),
+                "seen": stripe_seen(run.world, run.config),
+                "heard": heard_glass(run.world, [obs.sonar for obs in run.observations]),
+            }
+            by_sensing[key] = judged, int(sunlight_seen_twice(run.world, run.config))
         offered[c] = by_sensing[key]
     rows = tuple(
         {
             "world": name,
             "config": c,
             "rule": rule,
-            **world_metrics(run, *offered[c][:3]),
-            "sunlight_seen_twice": offered[c][3],
+            **world_metrics(run, **offered[c][0]),
+            "sunlight_seen_twice": offered[c][1],
         }
         for (c, rule), run in runs.items()
     )
