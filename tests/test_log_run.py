@@ -341,9 +341,10 @@ def test_the_rule_flag_says_which_rules_it_takes(capsys):
 
 
 def test_carmen_raw_scans_before_the_first_odometry_are_counted(tmp_path):
-    raw = "RAWLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 5.0 host 5.0"
+    raw = "RAWLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 {t} host {t}"
+    early, late = raw.format(t=3.0), raw.format(t=5.0)  # stamped before the odometry, after it
     path = tmp_path / "raw.log"
-    path.write_text(f"{raw}\n{raw}\nODOM 1 2 0.1 0 0 0 4.0 host 4.0\n{raw}\n{raw}\n")
+    path.write_text(f"{early}\n{early}\nODOM 1 2 0.1 0 0 0 4.0 host 4.0\n{late}\n{late}\n")
     assert [r.skipped for r in open_log(path)] == [2, 2]
 
 

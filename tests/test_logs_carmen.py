@@ -225,14 +225,34 @@ def test_rawlaser1_scans_are_placed_at_the_latest_odometry(tmp_path: Path) -> No
         assert b.scan.stamp == a.scan.stamp and b.scan.max_range == a.scan.max_range
 
 
+def test_rawlaser1_scans_are_placed_between_the_odometry_around_their_stamps(tmp_path: Path) -> None:
+    raw = "RAWLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 {t} host {t}"
+    odom = "ODOM {x} 0 {theta} 0 0 0 {t} host {t}"
+    lines = [
+        odom.format(x=1.0, theta=3.0, t=1.0),
+        raw.format(t=1.25),  # the next ODOM line comes after it
+        odom.format(x=3.0, theta=-3.0, t=2.0),  # turning the short way, through pi
+        raw.format(t=2.5),  # no ODOM line after it for more than a second: at the latest
+        raw.format(t=3.6),
+        raw.format(t=3.7),  # the log ends: at the latest
+    ]
+    records = list(read_carmen(write(tmp_path, *lines)))
+    turn = 2 * np.pi - 6.0
+    np.testing.assert_allclose(
+        [r.robot_pose for r in records], [[1.5, 0, 3.0 + turn / 4], [3.0, 0, -3.0], [3.0, 0, -3.0], [3.0, 0, -3.0]]
+    )
+
+
 def test_rawlaser1_is_read_only_where_the_log_has_no_other_scans(tmp_path: Path) -> None:
     raw = "RAWLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 5.0 host 5.0"
     robot = "ROBOTLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 1 2 0.1 1 2 0.1 0 0 0 0 0 5.0 host 5.0"
     odom = "ODOM 1 2 0.1 0 0 0 4.0 host 4.0"
     (record,) = read_carmen(write(tmp_path, odom, raw, robot))  # the logger writes each scan both ways
     assert record.scan.pose.tolist() == [1.0, 2.0, 0.1]
-    records = list(read_carmen(write(tmp_path, raw, odom, raw, raw)))  # the first, before any odometry: skipped
+    early = raw.replace("5.0 host 5.0", "3.0 host 3.0")
+    records = list(read_carmen(write(tmp_path, early, odom, raw, raw)))  # the first, stamped before odometry: skipped
     assert [r.index for r in records] == [0, 1] and records[0].robot_pose.tolist() == [1.0, 2.0, 0.1]
+    assert [r.skipped for r in records] == [1, 1]
     with pytest.raises(LogError, match="x.log: none of the 2 RAWLASER1 scans could be placed: the log has no ODOM"):
         list(read_carmen(write(tmp_path, raw, raw)))
 

@@ -297,7 +297,7 @@ def test_sensors_and_poses_out_of_the_horizontal_plane_are_refused(
         list(read_rosbag(path))
 
 
-def test_a_scan_is_placed_at_its_stamp_not_when_it_was_recorded(tmp_path: Path) -> None:
+def test_a_scan_is_placed_at_its_stamp_between_the_poses_around_it_not_when_it_was_recorded(tmp_path: Path) -> None:
     path = write_bag(
         tmp_path / "latency.bag",
         1,
@@ -309,8 +309,59 @@ def test_a_scan_is_placed_at_its_stamp_not_when_it_was_recorded(tmp_path: Path) 
         ],
     )
     records = list(read_rosbag(path))
-    np.testing.assert_allclose([r.robot_pose for r in records], [[1.0, 0, 1.0], [1.1, 0, 1.1]], atol=1e-9)
-    np.testing.assert_allclose([r.scan.pose[2] for r in records], [1.0 - np.pi, 1.1 - np.pi], atol=1e-9)
+    np.testing.assert_allclose([r.robot_pose for r in records], [[1.0, 0, 1.0], [1.15, 0, 1.15]], atol=1e-9)
+    np.testing.assert_allclose([r.scan.pose[2] for r in records], [1.0 - np.pi, 1.15 - np.pi], atol=1e-9)
+
+
+def test_a_scan_waits_for_the_pose_after_its_stamp_at_most_a_second_of_recording(tmp_path: Path) -> None:
+    path = write_bag(
+        tmp_path / "wait.bag",
+        1,
+        [
+            (*ODOM, 1.0, odometry(1.0, 1.0, 0.0, 0.0)),
+            (*SCAN, 1.05, scan(1.05, [1.0, 1.0, 1.0], frame="base_link")),  # the next pose comes after it
+            (*RANGE, 1.06, sonar(1.06, 2.0, frame="base_link")),
+            (*ODOM, 1.1, odometry(1.1, 2.0, 0.0, 0.0)),
+            (*SCAN, 1.2, scan(1.2, [1.0, 1.0, 1.0], frame="base_link")),  # no pose after it for 1 s: the latest
+            (*RANGE, 2.3, sonar(2.3, 3.0, frame="base_link")),
+            (*ODOM, 2.5, odometry(2.5, 9.0, 0.0, 0.0)),
+            (*SCAN, 2.6, scan(2.6, [1.0, 1.0, 1.0], frame="base_link")),  # the bag ends: the latest
+        ],
+    )
+    records = list(read_rosbag(path))
+    assert [r.index for r in records] == [0, 1, 2]
+    np.testing.assert_allclose([r.robot_pose[0] for r in records], [1.5, 2.0, 9.0], atol=1e-9)
+    assert records[0].sonar is None and [r.sonar.ranges.tolist() for r in records[1:]] == [[2.0], [3.0]]
+
+
+def test_tf_is_interpolated_turning_the_short_way(tmp_path: Path) -> None:
+    path = write_bag(
+        tmp_path / "turn.bag",
+        1,
+        [
+            (*TF, 1.0, transform(1.0, "odom", "base_link", 0.0, 0.0, np.pi - 0.1)),
+            (*SCAN, 1.1, scan(1.25, [1.0, 1.0, 1.0], frame="base_link")),
+            (*TF, 1.2, transform(1.5, "odom", "base_link", 2.0, 0.0, -np.pi + 0.1)),
+        ],
+    )
+    (record,) = list(read_rosbag(path))
+    np.testing.assert_allclose(record.robot_pose[:2], [1.0, 0.0], atol=1e-9)
+    assert abs(abs(record.robot_pose[2]) - np.pi) < 1e-9  # through pi, not through 0
+
+
+def test_the_readings_of_a_scan_that_could_not_be_placed_come_with_the_next(tmp_path: Path) -> None:
+    path = write_bag(
+        tmp_path / "early.bag",
+        1,
+        [
+            (*RANGE, 0.4, sonar(0.4, 2.0, frame="base_link")),
+            (*SCAN, 0.5, scan(0.5, [1.0, 1.0, 1.0], frame="base_link")),  # before any pose: skipped
+            (*ODOM, 1.0, odometry(1.0, 1.0, 0.0, 0.0)),
+            (*SCAN, 1.1, scan(1.0, [1.0, 1.0, 1.0], frame="base_link")),
+        ],
+    )
+    (record,) = list(read_rosbag(path))
+    assert record.skipped == 1 and record.sonar is not None and record.sonar.ranges.tolist() == [2.0]
 
 
 def test_transforms_recorded_out_of_stamp_order_apply_by_stamp(tmp_path: Path) -> None:
@@ -325,7 +376,7 @@ def test_transforms_recorded_out_of_stamp_order_apply_by_stamp(tmp_path: Path) -
             (*SCAN, 3.7, scan(2.2, [1.0, 1.0, 1.0], frame="base_link")),
         ],
     )
-    assert [r.robot_pose[0] for r in read_rosbag(path)] == [3.0, 2.0]
+    np.testing.assert_allclose([r.robot_pose[0] for r in read_rosbag(path)], [3.0, 2.2], atol=1e-9)
 
 
 def test_a_scan_older_than_the_poses_kept_after_placed_scans_is_refused(tmp_path: Path) -> None:

@@ -21,10 +21,12 @@ One message per line, ``NAME fields... ipc_timestamp ipc_hostname logger_timesta
   m e_1..e_m``: the front laser as the CARMEN logger records it, layout as in
   ROBOTLASER1 but no pose: read only from a log that has no ROBOTLASER1 nor
   FLASER line (the logger writes each scan twice, RAWLASER1 and ROBOTLASER1, in a
-  log with both), placed at the latest ODOM pose at or before it, not
-  interpolated (as :mod:`~evmap.sources.logs.rosbag` places its scans), the laser
-  ``robot_frontlaser_offset`` ahead (as FLASER); scans before the first ODOM line
-  are skipped, and a log none of whose scans can be placed is an error.
+  log with both), placed at the ODOM pose at its stamp, interpolated between the
+  ODOM lines around it (as :mod:`~evmap.sources.logs.rosbag` places its scans; a
+  scan waits for the next ODOM line at most :data:`~evmap.sources.logs.tf.WAIT_SECONDS`
+  of the log's stamps, and is placed at the latest before it then, or at the end of
+  the log), the laser ``robot_frontlaser_offset`` ahead (as FLASER); scans stamped
+  before the first ODOM line are skipped, and a log none of whose scans can be placed is an error.
 - ``ODOM x y theta tv rv accel``: checked (finite numbers); the poses of RAWLASER1 scans (the other
   scans carry their own).
 - ``SONAR cone_angle k s_1..s_k x_1 y_1 theta_1 .. x_k y_k theta_k``: a sonar ring
@@ -57,8 +59,10 @@ import io
 import os
 import stat
 import zlib
+from collections import deque
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from itertools import chain
 from pathlib import Path
 
 import numpy as np
@@ -76,6 +80,7 @@ from evmap.sources.logs.scan import (
     check_pose,
     compose,
 )
+from evmap.sources.logs.tf import WAIT_SECONDS, History
 
 __all__ = [
     "DEFAULT_FOV_DEG",
@@ -242,7 +247,6 @@ class _State:
         self.params: dict[str, str] = {}
         self.layouts: dict[int, LaserGeometry] = {}
         self.sonar: RangeReadings | None = None
-        self.odometry: NDArray[np.float64] | None = None  # the latest ODOM pose
 
     def param(self, name: str, where: str, positive: bool = True) -> float | None:
         if name not in self.params:
@@ -277,14 +281,17 @@ class _State:
 
 def _records(path: Path, options: CarmenOptions) -> Iterator[LogRecord]:
     state = _State(options)
-    index = raw_scans = 0
+    index = raw_scans = skipped = 0
     raw = None  # whether RAWLASER1 lines are the scans: the log has no ROBOTLASER1 nor FLASER line
-    for number, line in text_lines(path):
+    odometry = History(_between_poses)  # the ODOM poses by stamp
+    held: deque[tuple[LaserScan, str, RangeReadings | None]] = deque()  # RAWLASER1 scans waiting for their poses
+    now = -np.inf  # the stamp of the latest ODOM or RAWLASER1 line
+    for number, line in chain(text_lines(path), [(None, "END")]):  # at the end, every scan waiting is placed
         words = line.split()
         if not words or words[0].startswith("#"):
             continue
         where = f"{path}:{number}"
-        name = words[0]
+        name = words[0] if number is not None else ""
         if name == "PARAM":
             if len(words) < 3:
                 raise LogError(f"{where}: PARAM needs a name and a value")
@@ -302,15 +309,22 @@ def _records(path: Path, options: CarmenOptions) -> Iterator[LogRecord]:
             if raw:
                 raw_scans += 1
                 scan, _ = _laser_line(words, where, options.unit, 0)
-                if state.odometry is not None:
-                    yield replace(_placed(scan, state, where, index), skipped=raw_scans - 1 - index)
-                    index += 1
+                held.append((scan, where, state.sonar))
+                now = scan.stamp
         elif name == "ODOM":
             if len(words) != 10:
                 raise LogError(f"{where}: ODOM needs 10 fields (x y theta tv rv accel and 3 stamps), got {len(words)}")
-            state.odometry = check_pose(_numbers(words[1:4], where, "ODOM pose"), where, "odometry pose")
+            pose = check_pose(_numbers(words[1:4], where, "ODOM pose"), where, "odometry pose")
+            odometry.add(_stamp(words, where, "ODOM"), pose)
+            now = odometry.stamps[-1]
         elif name == "SONAR":
             state.sonar = _sonar(words, where, options)
+        while held and (number is None or odometry.covers(held[0][0].stamp) or now - held[0][0].stamp > WAIT_SECONDS):
+            if (record := _placed(*held.popleft(), odometry, state, index, skipped)) is None:
+                skipped += 1
+            else:
+                yield record
+                index += 1
     if raw_scans and not index:
         raise LogError(
             f"{path}: none of the {raw_scans} RAWLASER1 scans could be placed: the log has no ODOM line before them"
@@ -322,12 +336,30 @@ def _only_raw_scans(path: Path) -> bool:
     return not any(line.startswith(("ROBOTLASER1 ", "FLASER ")) for _, line in text_lines(path))
 
 
-def _placed(scan: LaserScan, state: _State, where: str, index: int) -> LogRecord:
-    """A RAWLASER1 scan at the latest odometry pose, the laser ``robot_frontlaser_offset`` ahead of the robot."""
-    robot = state.odometry
+def _placed(
+    scan: LaserScan,
+    where: str,
+    sonar: RangeReadings | None,
+    odometry: History,
+    state: _State,
+    index: int,
+    skipped: int,
+) -> LogRecord | None:
+    """A RAWLASER1 scan at the odometry pose at its stamp, the laser ``robot_frontlaser_offset`` ahead of the robot;
+    None before the first ODOM stamp."""
+    robot = odometry.at(scan.stamp)
+    if robot is None:
+        return None
     offset = state.param("robot_frontlaser_offset", where, positive=False) or 0.0
     laser = check_pose(compose(robot, [offset, 0.0, 0.0]), where, "laser pose (robot_frontlaser_offset ahead)")
-    return LogRecord(index, LaserScan(scan.stamp, laser, scan.angles, scan.ranges, scan.max_range), robot, state.sonar)
+    moved = LaserScan(scan.stamp, laser, scan.angles, scan.ranges, scan.max_range)
+    return LogRecord(index, moved, robot, sonar, skipped=skipped)
+
+
+def _between_poses(a: NDArray[np.float64], b: NDArray[np.float64], s: float) -> NDArray[np.float64]:
+    """The 2D pose the share ``s`` of the way from ``a`` to ``b``, turning the short way."""
+    turn = (b[2] - a[2] + np.pi) % (2 * np.pi) - np.pi
+    return np.array([a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]), a[2] + s * turn])
 
 
 def _flaser(words: list[str], where: str, state: _State, index: int) -> LogRecord:

@@ -21,9 +21,13 @@ What :func:`read_rosbag` reads, in the bag's record order, each message placed b
   ``tf2_msgs/TFMessage`` transforms, the robot's is ``base_frame``'s (the
   laser's if tf does not link ``base_frame`` to the world).
 
-Time: a scan is placed at its header stamp: by the odometry pose, and each dynamic
-(``/tf``) transform of the chain, of the latest stamp at or before it among the
-messages read before the scan (not interpolated); transforms recorded out of stamp
+Time: a scan is placed at its header stamp, as tf2 places it (:mod:`~evmap.sources.logs.placing`): the
+odometry pose, and each dynamic (``/tf``) transform of the chain, interpolated between
+the stamps around it (translation linearly, rotation by slerp). A scan read before a
+pose past its stamp waits for one, at most :data:`~evmap.sources.logs.tf.WAIT_SECONDS`
+of the bag's recording time (it is then placed at the latest pose before its stamp,
+as it is at the end of the bag); the scans leave in the order they were read, each with
+the Range readings read before it. Messages recorded out of stamp
 order are kept in stamp order. Each source keeps at least the last
 :data:`~evmap.sources.logs.tf.HISTORY_SECONDS` of stamps (at most twice that), so memory stays bounded.
 Static transforms (a topic named ``tf_static``) are read first and hold at every
@@ -55,12 +59,13 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
+from itertools import chain
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from evmap.sources.logs.placing import HeldScan, Places, WaitingScans
 from evmap.sources.logs.scan import (
     UNITS,
     LaserGeometry,
@@ -71,18 +76,7 @@ from evmap.sources.logs.scan import (
     RangeReadings,
     Unit,
 )
-from evmap.sources.logs.tf import (
-    HISTORY_SECONDS,
-    History,
-    TfBuffer,
-    frame_name,
-    header_stamp,
-    laser_pose,
-    rigid,
-    robot_pose,
-    sensor_pose,
-    then,
-)
+from evmap.sources.logs.tf import HISTORY_SECONDS, TfBuffer, frame_name, header_stamp, sensor_pose
 
 if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader
@@ -220,45 +214,57 @@ def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
         scan_topic, range_topics, odom_topic = _choose(reader, path, options)
         tf_connections = [c for c in reader.connections if c.msgtype == TF]
         tf = TfBuffer()
-        for connection, msg in _messages(reader, [c for c in tf_connections if _is_static(c.topic)], path):
+        for connection, _, msg in _messages(reader, [c for c in tf_connections if _is_static(c.topic)], path):
             tf.add(msg, f"{path} {connection.topic}", static=True)
         wanted = {scan_topic, odom_topic, *range_topics}
         connections = [c for c in reader.connections if c.topic in wanted and c.msgtype != TF]
         connections += [c for c in tf_connections if not _is_static(c.topic)]
-        places = _Places(options, odom_topic, tf, bool(tf_connections))
+        source = f"odometry on {odom_topic}" if odom_topic else f"tf to {frame_name(options.world_frame)!r}"
+        places = Places(source, tf, bool(tf_connections), bool(odom_topic), options.world_frame, options.base_frame)
+        waiting = WaitingScans(places)
         latest: dict[str, Reading] = {}
+        fresh = False  # a Range message came since the last scan read
         ring: RangeReadings | None = None
+        carried: dict[str, Reading] | None = None  # the readings of scans that could not be placed
         index = skipped = 0
-        for connection, msg in _messages(reader, connections, path):
-            topic = connection.topic
-            if connection.msgtype == TF:
-                tf.add(msg, f"{path} {topic}", static=False)
-                continue
-            stamp = header_stamp(msg)
-            where = f"{path} {topic}@{stamp:.9f}"
-            if topic == odom_topic:
-                places.add_odometry(msg, stamp, where)
-            elif topic in range_topics:
-                latest[topic] = _range(msg, where, options.unit)
-                ring = None
-            elif topic == scan_topic:
-                scan = _scan(msg, where, options.unit)
-                placed = places.scan(frame_name(msg.header.frame_id), stamp, where)
+        for connection, recorded, msg in chain(_messages(reader, connections, path), [(None, None, None)]):
+            if connection is None:
+                pass  # the bag ended: every scan still waiting is placed
+            elif connection.msgtype == TF:
+                tf.add(msg, f"{path} {connection.topic}", static=False)
+            else:
+                topic, stamp = connection.topic, header_stamp(msg)
+                where = f"{path} {topic}@{stamp:.9f}"
+                if topic == odom_topic:
+                    places.add_odometry(msg, stamp, where)
+                elif topic in range_topics:
+                    latest[topic], fresh = _range(msg, where, options.unit), True
+                elif topic == scan_topic:
+                    scan = _scan(msg, where, options.unit)
+                    readings = dict(latest) if fresh else None
+                    waiting.add(HeldScan(scan, frame_name(msg.header.frame_id), stamp, where, recorded, readings))
+                    fresh = False
+            for held in waiting.ready(recorded):
+                placed = places.scan(held.frame, held.stamp, held.where)
+                readings = held.readings or carried
                 if placed is None:
+                    carried = readings
                     if index:
                         raise LogError(
-                            f"{where}: no pose at or before the scan's stamp by {places.source} (kept: at least the "
-                            f"last {HISTORY_SECONDS:g} s of stamps), though the scans before it were placed: "
+                            f"{held.where}: no pose at or before the scan's stamp by {places.source} (kept: at least "
+                            f"the last {HISTORY_SECONDS:g} s of stamps), though the scans before it were placed: "
                             "are the stamps out of order?"
                         )
                     skipped += 1
                     continue
                 laser, flipped, robot, base = placed
+                scan = held.scan
                 angles, ranges = (-scan.angles[::-1], scan.ranges[::-1]) if flipped else (scan.angles, scan.ranges)
-                if latest and ring is None:
-                    ring = _ring(latest, tf, base, stamp, where, bool(tf_connections))
+                if readings:
+                    ring = _ring(readings, tf, base, held.stamp, held.where, bool(tf_connections))
+                    carried = None
                 yield LogRecord(
-                    index, LaserScan(stamp, laser, angles, ranges, scan.max_range), robot, ring, skipped=skipped
+                    index, LaserScan(held.stamp, laser, angles, ranges, scan.max_range), robot, ring, skipped=skipped
                 )
                 index += 1
         if skipped and not index:
@@ -270,51 +276,9 @@ def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
         reader.close()
 
 
-class _Places:
-    """Where the robot and its laser were at a stamp: by odometry and tf, or by tf alone."""
-
-    def __init__(self, options: RosbagOptions, odom_topic: str, tf: TfBuffer, bag_has_tf: bool) -> None:
-        self.options = options
-        self.odometry = History() if odom_topic else None
-        self.tf = tf
-        self.bag_has_tf = bag_has_tf
-        self.source = f"odometry on {odom_topic}" if odom_topic else f"tf to {frame_name(options.world_frame)!r}"
-
-    def add_odometry(self, msg: Any, stamp: float, where: str) -> None:
-        """An Odometry message, checked: the robot's frame, 3D pose and 2D pose at its stamp."""
-        p = msg.pose.pose
-        pose3 = rigid(p.position, p.orientation, where, "odometry pose")
-        robot = robot_pose(pose3, where, "odometry pose")
-        assert self.odometry is not None
-        self.odometry.add(stamp, (frame_name(msg.child_frame_id), pose3, robot))
-
-    def scan(
-        self, frame: str, stamp: float, where: str
-    ) -> tuple[NDArray[np.float64], bool, NDArray[np.float64], str] | None:
-        """The laser's 2D pose, whether it is upside down, the robot's 2D pose and frame; None if not known yet."""
-        if self.odometry is not None:
-            at = self.odometry.at(stamp)
-            if at is None:
-                return None
-            base, robot3, robot = at
-            mount = self.tf.mount(frame, base, stamp, where, self.bag_has_tf)
-            if mount is None:
-                return None
-            laser, flipped = laser_pose(then(robot3, mount), where, frame)
-            return laser, flipped, robot, base
-        world, base = frame_name(self.options.world_frame), frame_name(self.options.base_frame)
-        placed = self.tf.pose(frame, world, stamp, where)
-        if placed is None:
-            return None
-        laser, flipped = laser_pose(placed, where, frame)
-        robot3 = self.tf.pose(base, world, stamp, where)
-        if robot3 is None:
-            return laser, flipped, laser, frame
-        return laser, flipped, robot_pose(robot3, where, f"pose of the robot's frame {base!r}"), base
-
-
-def _messages(reader: AnyReader, connections: list[Any], path: Path) -> Iterator[tuple[Any, Any]]:
-    """The bag's messages on these connections, deserialized, in time order; a damaged one is a LogError."""
+def _messages(reader: AnyReader, connections: list[Any], path: Path) -> Iterator[tuple[Any, float, Any]]:
+    """The bag's messages on these connections in recording order: the connection, when it was recorded (s) and
+    the message, deserialized; a damaged one is a LogError."""
     if not connections:  # rosbags reads every connection when given none
         return
     messages = reader.messages(connections=connections)
@@ -328,7 +292,7 @@ def _messages(reader: AnyReader, connections: list[Any], path: Path) -> Iterator
         except Exception as exc:  # noqa: BLE001 - whatever rosbags meets in a damaged bag
             after = "" if stamp is None else f" after the message of {stamp * 1e-9:.9f} s"
             raise LogError(f"{path}: damaged bag{after} ({type(exc).__name__}: {exc})") from None
-        yield connection, msg
+        yield connection, stamp * 1e-9, msg
 
 
 def _scan(msg: Any, where: str, unit: Unit) -> LaserScan:

@@ -5,10 +5,13 @@ sensors with.
 - :func:`robot_pose`, :func:`laser_pose`, :func:`sensor_pose`: a 3D pose as the 2D pose
   evmap maps with, refused where it leans more than :data:`MAX_TILT_DEG` out of the
   horizontal plane; a laser upside down is told apart (its beams sweep clockwise).
-- :class:`History`: stamped values of one source, the latest at or before a stamp,
+- :func:`blend`: a 3D pose between two, as tf2 interpolates (translation linearly, rotation by slerp).
+- :class:`History`: stamped values of one source, the value at a stamp interpolated between
+  the two stamps around it (the latest at or before it where none is held after),
   at least the last :data:`HISTORY_SECONDS` of stamps kept.
 - :class:`TfBuffer`: static transforms (at every stamp) and the history of the
-  dynamic ones; the pose of one frame in another at a stamp, not interpolated.
+  dynamic ones; the pose of one frame in another at a stamp, each dynamic transform
+  of the chain interpolated, and whether every one of them is held past the stamp.
 
 Examples
 --------
@@ -25,6 +28,7 @@ Examples
 from __future__ import annotations
 
 from bisect import bisect_right
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -38,9 +42,11 @@ __all__ = [
     "MAX_QUATERNION_ERROR",
     "MAX_TF_DEPTH",
     "MAX_TILT_DEG",
+    "WAIT_SECONDS",
     "History",
     "Rigid",
     "TfBuffer",
+    "blend",
     "frame_name",
     "header_stamp",
     "inverse",
@@ -59,6 +65,10 @@ MAX_TILT_DEG = 10.0
 
 HISTORY_SECONDS = 10.0
 """Stamps (s) of odometry and of each dynamic transform kept at least (tf2's buffer keeps 10 s too)."""
+
+WAIT_SECONDS = 1.0
+"""How long (s, by the log's clock) a scan waits for a pose past its stamp before it is placed at the latest
+pose before it."""
 
 MAX_QUATERNION_ERROR = 0.01
 """How far the squared norm of a rotation's quaternion may be from 1 (tf2's bound); it is normalised."""
@@ -116,6 +126,34 @@ def _heading(pose: Rigid) -> float:
     return float(np.arctan2(pose[0][1, 0], pose[0][0, 0]))
 
 
+def blend(a: Rigid, b: Rigid, s: float) -> Rigid:
+    """The pose the share ``s`` (0 to 1) of the way from ``a`` to ``b``: the translation linearly, the rotation
+    about the single axis that turns ``a`` into ``b`` (slerp), as tf2 interpolates two transforms.
+
+    >>> a, b = (np.eye(3), np.zeros(3)), (np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]]), np.array([2.0, 0, 0]))
+    >>> r, t = blend(a, b, 0.5)
+    >>> round(float(np.degrees(np.arctan2(r[1, 0], r[0, 0]))), 6), t.tolist()  # a quarter turn, halfway
+    (45.0, [1.0, 0.0, 0.0])
+    """
+    relative = a[0].T @ b[0]
+    cos = np.clip((np.trace(relative) - 1) / 2, -1.0, 1.0)
+    angle = float(np.arccos(cos))
+    axis = np.array([relative[2, 1] - relative[1, 2], relative[0, 2] - relative[2, 0], relative[1, 0] - relative[0, 1]])
+    if angle > np.pi - 1e-6:  # half a turn: the axis from the symmetric part
+        axis = np.sqrt(np.maximum((np.diag(relative) + 1) / 2, 0.0))  # |k|, from R = 2 k k^T - I
+        i = int(np.argmax(axis))
+        sign = np.where(relative[i] < 0, -1.0, 1.0)  # the signs of the k_j against the largest, k_i > 0
+        sign[i] = 1.0
+        axis *= sign
+    norm = float(np.hypot.reduce(axis))
+    turn = np.eye(3)
+    if norm > 1e-12 and angle > 0:
+        k = axis / norm
+        cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+        turn = np.eye(3) + np.sin(s * angle) * cross + (1 - np.cos(s * angle)) * cross @ cross
+    return a[0] @ turn, a[1] + s * (b[1] - a[1])
+
+
 def robot_pose(pose: Rigid, where: str, what: str) -> NDArray[np.float64]:
     """The robot's 2D pose from its 3D one: x, y and heading, the rotation checked to be about the vertical."""
     tilt = np.degrees(np.arccos(np.clip(pose[0][2, 2], -1.0, 1.0)))
@@ -155,14 +193,22 @@ def sensor_pose(pose: Rigid, where: str, frame: str) -> NDArray[np.float64]:
 
 
 class History:
-    """Stamped values of one source in stamp order: the latest at or before a stamp.
+    """Stamped values of one source in stamp order: the value at a stamp, interpolated.
 
+    ``between(a, b, s)`` gives the value the share ``s`` of the way from the value ``a``
+    to the next one ``b``; a stamp past the latest held gets the latest value.
     Keeps at least the last :data:`HISTORY_SECONDS` of stamps, at most twice that:
     entries are dropped in batches, the latest at or before the cut kept, so what
-    :meth:`at` finds is always the latest at or before the stamp of all added.
+    :meth:`at` finds is always what it would find among all the values added.
+
+    >>> h = History(lambda a, b, s: a + s * (b - a))
+    >>> h.add(1.0, 10.0); h.add(2.0, 20.0)
+    >>> h.at(0.5), h.at(1.25), h.at(3.0), h.covers(1.5), h.covers(2.5)
+    (None, 12.5, 20.0, True, False)
     """
 
-    def __init__(self) -> None:
+    def __init__(self, between: Callable[[Any, Any, float], Any]) -> None:
+        self.between = between
         self.stamps: list[float] = []
         self.values: list[Any] = []
 
@@ -177,9 +223,19 @@ class History:
             del self.stamps[:keep], self.values[:keep]
 
     def at(self, stamp: float) -> Any:
-        """The value of the latest stamp at or before ``stamp``, or None."""
+        """The value at ``stamp``: between the values of the stamps around it; past the latest, the latest; None
+        before the first."""
         i = bisect_right(self.stamps, stamp)
-        return self.values[i - 1] if i else None
+        if not i:
+            return None
+        if i == len(self.stamps) or self.stamps[i - 1] == stamp:
+            return self.values[i - 1]
+        t0, t1 = self.stamps[i - 1], self.stamps[i]
+        return self.between(self.values[i - 1], self.values[i], (stamp - t0) / (t1 - t0))
+
+    def covers(self, stamp: float) -> bool:
+        """Whether a value at or after ``stamp`` is held: the value there is interpolated, not the latest."""
+        return bool(self.stamps) and self.stamps[-1] >= stamp
 
 
 class TfBuffer:
@@ -197,7 +253,7 @@ class TfBuffer:
             if static:
                 self.static[child] = link
             else:
-                self.dynamic.setdefault(child, History()).add(header_stamp(t), link)
+                self.dynamic.setdefault(child, History(_between_links)).add(header_stamp(t), link)
 
     def roots(self) -> str:
         """The frames that are a parent and never a child, in name order: the tops of the tf trees; or 'none'."""
@@ -205,22 +261,31 @@ class TfBuffer:
         children = {*self.static, *self.dynamic}
         return ", ".join(sorted({parent for parent, _ in links} - children)) or "none"
 
-    def _root(self, frame: str, stamp: float, where: str) -> tuple[str, Rigid]:
-        """The farthest ancestor of ``frame`` tf knows at ``stamp``, and the frame's pose in it."""
-        pose = IDENTITY
+    def _root(self, frame: str, stamp: float, where: str) -> tuple[str, Rigid, bool]:
+        """The farthest ancestor of ``frame`` tf knows at ``stamp``, the frame's pose in it, and whether every
+        dynamic transform on the way is held past ``stamp``."""
+        pose, covered = IDENTITY, True
         for _ in range(MAX_TF_DEPTH):
-            link = self.static.get(frame) or (self.dynamic[frame].at(stamp) if frame in self.dynamic else None)
+            link = self.static.get(frame)
+            if link is None and frame in self.dynamic:
+                link = self.dynamic[frame].at(stamp)
+                covered = covered and self.dynamic[frame].covers(stamp)
             if link is None:
-                return frame, pose
+                return frame, pose, covered
             frame, relative = link
             pose = then(relative, pose)
         raise LogError(f"{where}: the tf frames form a loop through {frame!r}")
 
     def pose(self, frame: str, target: str, stamp: float, where: str) -> Rigid | None:
         """Pose of ``frame`` in ``target`` at ``stamp``, or None if the transforms do not link them then."""
-        root, pose = self._root(frame, stamp, where)
-        target_root, target_pose = self._root(target, stamp, where)
+        root, pose, _ = self._root(frame, stamp, where)
+        target_root, target_pose, _ = self._root(target, stamp, where)
         return then(inverse(target_pose), pose) if root == target_root else None
+
+    def covers(self, frame: str, target: str, stamp: float, where: str) -> bool:
+        """Whether every dynamic transform between ``frame`` and ``target`` is held at or after ``stamp``: their
+        pose there is interpolated, no later transform can change it."""
+        return self._root(frame, stamp, where)[2] and self._root(target, stamp, where)[2]
 
     def mount(self, frame: str, base: str, stamp: float, where: str, bag_has_tf: bool) -> Rigid | None:
         """Pose of a sensor's ``frame`` on the robot's ``base`` at ``stamp``; None if tf links them only later.
@@ -236,3 +301,8 @@ class TfBuffer:
             f"{where}: tf does not link the frame {frame!r} to the robot's frame {base!r} "
             "(neither /tf nor /tf_static has a chain between them)"
         )
+
+
+def _between_links(a: tuple[str, Rigid], b: tuple[str, Rigid], s: float) -> tuple[str, Rigid]:
+    """A dynamic transform between two of a child frame: blended if both have the same parent, else the first."""
+    return (a[0], blend(a[1], b[1], s)) if a[0] == b[0] else a
