@@ -5,9 +5,14 @@ Each remembered pose (:mod:`evmap.maps.sensed`) gives free space twice over:
 - its sonar open space (:func:`evmap.sources.open_space.open_space` of its scan,
   with the map's config), the sectors from the sensor to the first echo;
 - its contour rays: the fan between neighbouring rays that both returned (at most
-  ``max_gap`` apart in bearing), from the sensor to ``margin`` short of the nearer
-  point (across a jump in range, what lies between the two rays beyond the nearer
-  point was not seen).
+  ``max_gap`` apart in bearing), from the sensor to the chord between their points
+  where they met one surface, and only to the nearer point's range across a jump in
+  range (what lies between the two rays beyond the nearer point was not seen).
+
+Both keep ``margin`` away from what the pose's rays met (:func:`ray_ends`: the points
+and the chords between them, less the rays on segments judged noise), measured square
+to the surface, not along the ray, which meets a wall at a grazing angle millimetres
+from it: no grid cell a measured wall crosses is free.
 
 The contour bounds the sonar's free space of its own pose (:func:`contour_bound`):
 a stripe point at range d is an opaque surface, so a sonar sector that reaches
@@ -51,43 +56,98 @@ from evmap.sources.rcd import extract_rcds
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["FreeSpaceParams", "contour_bound", "free_space", "ray_fan", "shadows", "surface_points", "surface_rays"]
+__all__ = [
+    "PRECISION",
+    "FreeSpaceParams",
+    "contour_bound",
+    "free_space",
+    "ray_ends",
+    "ray_fan",
+    "shadows",
+    "surface_points",
+    "surface_rays",
+]
+
+
+PRECISION = 1e-6
+"""The free space's coordinates are snapped to this grid (m)."""
 
 
 @dataclass(frozen=True)
 class FreeSpaceParams:
     """Constants of the free space (metres, radians, belief)."""
 
-    margin: float = 0.05  # a ray's free space ends this short of its point
+    margin: float = 0.05  # the free space keeps this far from what a ray met; a ray this close to a segment ends on it
     max_gap: float = np.radians(2.0)  # neighbouring rays farther apart than this bound no free space
     min_belief: float = 0.5  # lines believed at least this much end the free space
     bridge: float = 2.5  # a gap in the stripe between points at most this far apart (m) is bridged
     object_width: float = 0.6  # a believed unidentified object ends the free space over this width (m)
+    # neighbouring rays whose ranges differ by more than this times the arc between them met no one surface:
+    # a jump in range (a wall met 6 deg or more off its face stays one surface)
+    steepness: float = 10.0
 
 
 def ray_fan(s: Sensed, params: FreeSpaceParams) -> shapely.Geometry:
-    """The free space between neighbouring rays of one pose that both returned.
+    """The space between neighbouring rays of one pose that both returned, up to what they met (:func:`ray_ends`
+    is what the free space keeps ``margin`` away from).
 
-    >>> from evmap.sources.params import SonarParams
     >>> bearing = np.radians([-10.0, -9.0, -8.0, 30.0])
     >>> s = Sensed(0, np.zeros(2), bearing, np.array([2.0, 2.0, 2.0, 3.0]), None)
-    >>> round(ray_fan(s, FreeSpaceParams()).area, 3)  # two thin triangles of radius 1.95, 1 deg each
-    0.066
+    >>> round(ray_fan(s, FreeSpaceParams()).area, 3), round(shapely.difference(ray_fan(s, FreeSpaceParams()),
+    ...     ray_ends(s, FreeSpaceParams())).area, 3)  # two thin triangles, 2 m long; 5 cm short of their ends
+    (0.07, 0.066)
     """
-    r = s.range - params.margin
+    ends = _pairs(s, params)
+    if ends is None:
+        return shapely.Polygon()
+    pair, corners = ends
+    # each run of adjacent sectors is one star polygon (a union of thousands of triangles whose edges do not
+    # meet would cost a second per pose)
+    breaks = np.flatnonzero(s.bearing[pair[1:]] != s.bearing[pair[:-1] + 1]) + 1
+    runs = [shapely.Polygon(np.vstack([s.origin, c.reshape(-1, 2)])) for c in np.split(corners, breaks)]
+    return shapely.union_all(runs)
+
+
+def ray_ends(s: Sensed, params: FreeSpaceParams) -> shapely.Geometry:
+    """What the rays of one pose met, widened by ``margin``: a band the free space stays out of.
+
+    Every returned ray's point, and between neighbouring rays that met one surface the chord
+    between their points (across a jump in range, the arc at the nearer range that ends the
+    fan). ``margin`` square to the surface, not along the ray: a ray that meets a wall at a
+    grazing angle ends millimetres from the wall ``margin`` before its point, and the grid
+    cells the wall crosses would be free.
+
+    >>> s = Sensed(0, np.zeros(2), np.radians([0.0, 1.0]), np.array([2.0, 2.0]), None)
+    >>> band = ray_ends(s, FreeSpaceParams())
+    >>> [bool(band.contains(shapely.Point(x, 0.01))) for x in (1.9, 1.97)]
+    [False, True]
+    """
+    ok = np.isfinite(s.range) & (s.range > 0)
+    points = s.origin + s.range[ok, None] * np.column_stack([np.cos(s.bearing[ok]), np.sin(s.bearing[ok])])
+    met = shapely.multipoints(points)
+    ends = _pairs(s, params)
+    if ends is not None:  # the chords, one polyline per run of chords that meet end to end
+        corners = ends[1]
+        cut = np.flatnonzero((corners[1:, 0] != corners[:-1, 1]).any(axis=1)) + 1
+        runs = [np.vstack([run[0, 0], run[:, 1]]) for run in np.split(corners, cut)]
+        met = shapely.union(met, shapely.MultiLineString(runs))
+    return shapely.buffer(met, params.margin, quad_segs=2)
+
+
+def _pairs(s: Sensed, params: FreeSpaceParams) -> tuple[NDArray[np.intp], NDArray[np.float64]] | None:
+    """The neighbouring rays that both returned (the first of each pair) and the fan's corners on them (P, 2, 2):
+    at their points on one surface, at the nearer range across a jump; None without such rays."""
+    r = s.range
     ok = np.isfinite(r) & (r > 0)
     step = np.diff(s.bearing)
     pair = np.flatnonzero(ok[:-1] & ok[1:] & (step > 0) & (step <= params.max_gap))
     if not len(pair):
-        return shapely.Polygon()
-    near = np.minimum(r[pair], r[pair + 1])  # across a jump in range, only the nearer is known free
+        return None
+    a, b = r[pair], r[pair + 1]
+    jump = np.abs(a - b) > params.steepness * np.maximum(a, b) * step[pair]
+    a, b = np.where(jump, np.minimum(a, b), a), np.where(jump, np.minimum(a, b), b)
     u = np.column_stack([np.cos(s.bearing), np.sin(s.bearing)])
-    # each run of adjacent sectors is one star polygon, a staircase of arcs' chords (a union of
-    # thousands of triangles whose edges do not meet would cost a second per pose)
-    corners = s.origin + np.stack([near[:, None] * u[pair], near[:, None] * u[pair + 1]], axis=1)  # (P, 2, 2)
-    breaks = np.flatnonzero(s.bearing[pair[1:]] != s.bearing[pair[:-1] + 1]) + 1
-    runs = [c.reshape(-1, 2) for c in np.split(corners, breaks)]
-    return shapely.union_all([shapely.Polygon(np.vstack([s.origin, run])) for run in runs])
+    return pair, s.origin + np.stack([a[:, None] * u[pair], b[:, None] * u[pair + 1]], axis=1)
 
 
 def surface_rays(s: Sensed, p: NDArray[np.float64], q: NDArray[np.float64], margin: float, *, on: bool) -> Sensed:
@@ -244,9 +304,10 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
     pieces = []
     for s in poses:
         seen = [ray_fan(s, params)]
+        surfaces = _surfaces(s, bm, params.margin)
         if s.sonar is not None:
             sonar = open_space(s.sonar, extract_rcds(s.sonar, config.rcd, primitive=True), config.open_space)
-            bound = contour_bound(_surfaces(s, bm, params.margin), params, s.sonar.params.max_range + 1.0)
+            bound = contour_bound(surfaces, params, s.sonar.params.max_range + 1.0)
             seen.append(sonar if bound is None else shapely.intersection(sonar, bound))
         free = shapely.union_all(seen)
         if len(p) and not free.is_empty:
@@ -257,8 +318,9 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
             xmin, ymin, xmax, ymax = free.bounds
             reach = float(np.hypot(xmax - xmin, ymax - ymin)) + 1.0
             free = shapely.difference(free, shadows(s.origin, p[near], q[near], reach))
-        pieces.append(free)
-    union = shapely.union_all(pieces)
+        pieces.append(shapely.difference(free, ray_ends(surfaces, params)))
+    # snapped to the micrometre: the unions of touching sectors leave cracks of no width that a path crosses
+    union = shapely.set_precision(shapely.union_all(pieces), PRECISION)
     polygons = [g for g in shapely.get_parts(union) if isinstance(g, shapely.Polygon) and not g.is_empty]
     made = shapely.union_all(polygons) if polygons else shapely.Polygon()
     shapely.prepare(made)
@@ -269,9 +331,9 @@ def surface_points(bm: BeliefMap, params: FreeSpaceParams | None = None) -> shap
     """Every point the remembered poses' stripes measured on a surface, in an STRtree made once per map version.
 
     The rays' ends, less those on segments the pose's judgement called noise (sunlit pixels, not surfaces,
-    within ``margin``). A wall the stripe met at a grazing angle may give no line, and the free space of the
-    rays in front of it then reaches within millimetres of it; its points still say that a surface is there
-    (:func:`evmap.maps.planner.is_segment_clear` keeps its clearance from them).
+    within ``margin``). A wall the stripe met at a grazing angle may give no line; its points still say that a
+    surface is there (:func:`evmap.maps.planner.is_segment_clear` keeps its clearance from them: the free space
+    keeps only ``margin`` from them).
     """
     return _once(_POINTS, bm, params or FreeSpaceParams(), _surface_points)
 

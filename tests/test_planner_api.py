@@ -319,7 +319,7 @@ def test_a_map_is_updated_with_an_observation_and_saved_to_a_file(bm, tmp_path):
 
 def test_a_path_within_clearance_of_a_surface_the_stripe_measured_but_the_map_has_no_line_for_is_not_clear():
     """The stripe met the corridor's south wall at a grazing angle and no line was fitted there; the free space
-    of its rays reached within millimetres of the wall, and a path 5 cm from it was approved with clearance 0.2."""
+    of its rays keeps 5 cm from the wall, and a path 10 cm from it was approved with clearance 0.2."""
     from evmap.maps import planner
     from evmap.maps.app.run import run_scenario
     from evmap.maps.free_space import free_space, surface_points
@@ -327,11 +327,12 @@ def test_a_path_within_clearance_of_a_surface_the_stripe_measured_but_the_map_ha
     from evmap.sources.sim.scenario import default_scenario
 
     corridor = run_scenario(default_scenario(), load_config()).map
-    path = ((2.0, 1.2), (2.8, 0.05))  # ends 5 cm from the wall y = 0
+    path = ((2.0, 1.2), (2.8, 0.1))  # ends 10 cm from the wall y = 0
     assert not [
         ln for ln in corridor.lines() if abs(ln.p[1]) < 0.1 and abs(ln.q[1]) < 0.1 and min(ln.p[0], ln.q[0]) < 2.8
     ]
     assert planner.is_segment_clear(corridor, *path, 0.2, 0.5, "blocked", free_space(corridor))  # the free space alone
+    assert not corridor.is_segment_clear((2.0, 1.2), (2.8, 0.03), clearance=0.0)  # which keeps 5 cm from the wall
     assert not corridor.is_segment_clear(*path, clearance=0.2)  # its points are kept at a distance
     assert corridor.is_segment_clear((2.0, 1.2), (6.0, 1.2), clearance=0.2)  # the corridor's middle stays clear
     assert len(surface_points(corridor).geometries) > 100
