@@ -212,25 +212,27 @@ def _relation(
     mergeable: bool,
 ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
     """The candidate pairs (p[a]-q[a], op[b]-oq[b]) that are related (or, ``mergeable``, merging's candidates), and
-    their costs."""
-    ends = np.stack([p[a], q[a], op[b], oq[b]])  # (4, pairs, 2): each pair's two lines, ends p, q
-    d = ends[[1, 3]] - ends[[0, 2]]
-    length = np.hypot(d[..., 0], d[..., 1])
-    u = d / length[..., None]
-    longer = (length[1] > length[0]).astype(np.intp)  # 0: the first line of the pair, 1: the second
-    pick = np.arange(a.size)
-    ul, pl, ll, us = u[longer, pick], ends[2 * longer, pick], length[longer, pick], u[1 - longer, pick]
-    rel_p, rel_q = ends[2 - 2 * longer, pick] - pl, ends[3 - 2 * longer, pick] - pl
-    e_p, e_q = _cross(ul, rel_p), _cross(ul, rel_q)
-    off = np.maximum(np.abs(e_p), np.abs(e_q))
+    their costs; one coordinate at a time in flat arrays, the longer and the shorter line picked by np.where."""
+    px, py, qx, qy = (np.take(xy[:, i], a) for xy in (p, q) for i in (0, 1))
+    ox, oy, rx, ry = (np.take(xy[:, i], b) for xy in (op, oq) for i in (0, 1))
+    dx, dy, odx, ody = qx - px, qy - py, rx - ox, ry - oy
+    length, other = np.hypot(dx, dy), np.hypot(odx, ody)
+    longer = other > length  # the pair's second line is the longer
+    ulx, uly = np.where(longer, odx / other, dx / length), np.where(longer, ody / other, dy / length)
+    usx, usy = np.where(longer, dx / length, odx / other), np.where(longer, dy / length, ody / other)
+    plx, ply = np.where(longer, ox, px), np.where(longer, oy, py)
+    ll, ls = np.where(longer, other, length), np.where(longer, length, other)
+    rpx, rpy = np.where(longer, px, ox) - plx, np.where(longer, py, oy) - ply  # the shorter's ends from pl
+    rqx, rqy = np.where(longer, qx, rx) - plx, np.where(longer, qy, ry) - ply
+    off = np.maximum(np.abs(ulx * rpy - uly * rpx), np.abs(ulx * rqy - uly * rqx))
     turn = float(params.angle_deg)
     if mergeable:  # the shorter line's turn allowance (module doc), capped
-        allowance = np.degrees(np.arcsin(np.minimum(params.distance / length[1 - longer, pick], 1.0)))
+        allowance = np.degrees(np.arcsin(np.minimum(params.distance / ls, 1.0)))
         turn = np.clip(allowance, params.angle_deg, TURN_CAP * params.angle_deg)
-    tp, tq = _dot(ul, rel_p), _dot(ul, rel_q)  # the shorter's ends along the longer, which spans [0, length]
-    gap = np.maximum.reduce([np.minimum(tp, tq) - ll, -np.maximum(tp, tq), np.zeros_like(tp)])
+    tp, tq = ulx * rpx + uly * rpy, ulx * rqx + uly * rqy  # the shorter's ends along the longer, on [0, length]
+    gap = np.maximum(np.maximum(np.minimum(tp, tq) - ll, -np.maximum(tp, tq)), 0.0)
     ok = (
-        (np.abs(_dot(ul, us)) >= np.cos(np.radians(turn)) - _EPS)
+        (np.abs(ulx * usx + uly * usy) >= np.cos(np.radians(turn)) - _EPS)
         & (off <= params.distance + _EPS)
         & (gap <= params.gap + _EPS)
     )
