@@ -7,6 +7,8 @@ of one box and a query the cells of its box and the keys there: what they
 touch, at any size of the index, with nothing ever built anew. A box meeting
 more than :data:`WIDE_CELLS` cells is kept apart, in a short list every query
 looks through (few objects are that wide), so that no box files too many cells.
+The cells and the wide list hold the keys' rows of one array of boxes, which a
+query tests the keys it gathers against in one array operation.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["CELL", "QUERY_PAIRS", "WIDE_CELLS", "Bounds", "SpatialIndex"]
+__all__ = ["CELL", "FEW", "QUERY_PAIRS", "WIDE_CELLS", "Bounds", "SpatialIndex"]
 
 Bounds = tuple[float, float, float, float]
 """A box ``(xmin, ymin, xmax, ymax)``."""
@@ -30,6 +32,9 @@ WIDE_CELLS = 64
 
 QUERY_PAIRS = 1 << 18
 """How many key-box tests :meth:`SpatialIndex.query` of many boxes makes in one array operation, at most about."""
+
+FEW = 32
+"""Candidates of a query of one box up to this many are tested one by one, more in one array operation."""
 
 
 class SpatialIndex:
@@ -49,8 +54,12 @@ class SpatialIndex:
         self._cell = float(cell)
         self._boxes: dict[str, Bounds] = {}  # every key's current box
         self._spans: dict[str, list[tuple[int, int]] | None] = {}  # the cells of each key's box, None: wide
-        self._cells: dict[tuple[int, int], set[str]] = {}  # the keys filed under each cell
-        self._wide: set[str] = set()  # the keys whose boxes meet too many cells
+        self._rows: dict[str, int] = {}  # every key's row of ``_held``
+        self._keys: list[str] = []  # the key of each row (of a freed row, its last)
+        self._held = np.zeros((0, 4))  # each row's box, for the queries' array tests
+        self._free: list[int] = []  # the rows freed by removals, taken again by inserts
+        self._cells: dict[tuple[int, int], set[int]] = {}  # the rows filed under each cell
+        self._wide: set[int] = set()  # the rows whose boxes meet too many cells
         self._extent = [math.inf, math.inf, -math.inf, -math.inf]  # grows with the boxes, never shrinks
 
     @classmethod
@@ -77,24 +86,27 @@ class SpatialIndex:
         self._boxes[key] = box
         e = self._extent
         self._extent = [min(e[0], box[0]), min(e[1], box[1]), max(e[2], box[2]), max(e[3], box[3])]
+        row = self._row_for(key, box)
         cells = self._spans[key] = self._span(box)
         if cells is None:
-            self._wide.add(key)
+            self._wide.add(row)
             return
         for cell in cells:
-            self._cells.setdefault(cell, set()).add(key)
+            self._cells.setdefault(cell, set()).add(row)
 
     def remove(self, key: str) -> None:
         """Forget ``key`` (a KeyError if it is not there)."""
         del self._boxes[key]
+        row = self._rows.pop(key)
+        self._free.append(row)
         cells = self._spans.pop(key)
         if cells is None:
-            self._wide.discard(key)
+            self._wide.discard(row)
             return
         for cell in cells:
-            keys = self._cells[cell]
-            keys.discard(key)
-            if not keys:
+            rows = self._cells[cell]
+            rows.discard(row)
+            if not rows:
                 del self._cells[cell]
 
     def query(self, bounds: Bounds | NDArray[np.float64]) -> set[str]:
@@ -110,11 +122,16 @@ class SpatialIndex:
         xmin, ymin, xmax, ymax = bounds
         cells = self._span(bounds, len(self._cells))
         candidates = set(self._wide)
-        for keys in self._cells.values() if cells is None else (self._cells.get(c) for c in cells):
-            if keys:
-                candidates |= keys
-        boxes = self._boxes
-        return {k for k in candidates if (b := boxes[k])[0] <= xmax and b[2] >= xmin and b[1] <= ymax and b[3] >= ymin}
+        for rows in self._cells.values() if cells is None else (self._cells.get(c) for c in cells):
+            if rows:
+                candidates |= rows
+        if len(candidates) > FEW:  # one array test
+            found = np.fromiter(candidates, dtype=np.intp, count=len(candidates))
+            held = self._held[found]
+            meets = (held[:, 0] <= xmax) & (held[:, 2] >= xmin) & (held[:, 1] <= ymax) & (held[:, 3] >= ymin)
+            return set(map(self._keys.__getitem__, found[meets].tolist()))
+        boxes, keys = self._boxes, [self._keys[row] for row in candidates]
+        return {k for k in keys if (b := boxes[k])[0] <= xmax and b[2] >= xmin and b[1] <= ymax and b[3] >= ymin}
 
     def _query_many(self, boxes: NDArray[np.float64]) -> set[str]:
         """:meth:`query` of the boxes (n, 4)."""
@@ -130,18 +147,18 @@ class SpatialIndex:
         for box in boxes_to_gather:
             span = self._span(box, len(cells))
             if span is None:
-                candidates = set(self._boxes)
+                candidates = set(self._rows.values())
                 break
             for cell in span:
-                keys = cells.get(cell)
-                if keys:
-                    candidates |= keys
-        keys = list(candidates)
-        if not keys:
+                rows = cells.get(cell)
+                if rows:
+                    candidates |= rows
+        if not candidates:
             return set()
-        held = np.array([self._boxes[k] for k in keys], dtype=np.float64)
-        meets = np.zeros(len(keys), dtype=bool)
-        step = max(1, QUERY_PAIRS // len(keys))  # at most about QUERY_PAIRS tests at a time
+        found = np.fromiter(candidates, dtype=np.intp, count=len(candidates))
+        held = self._held[found]
+        meets = np.zeros(len(found), dtype=bool)
+        step = max(1, QUERY_PAIRS // len(found))  # at most about QUERY_PAIRS tests at a time
         for i in range(0, len(boxes), step):
             b = boxes[i : i + step]
             meets |= (
@@ -150,7 +167,23 @@ class SpatialIndex:
                 & (held[:, None, 1] <= b[:, 3])
                 & (held[:, None, 3] >= b[:, 1])
             ).any(axis=1)
-        return {keys[i] for i in np.flatnonzero(meets).tolist()}
+        return set(map(self._keys.__getitem__, found[meets].tolist()))
+
+    def _row_for(self, key: str, box: Bounds) -> int:
+        """A row of ``_held`` for ``key``, holding its box: a freed one, else a new one (the rows double)."""
+        if self._free:
+            row = self._free.pop()
+            self._keys[row] = key
+        else:
+            row = len(self._keys)
+            self._keys.append(key)
+            if row == len(self._held):
+                grown = np.zeros((max(64, 2 * row), 4))
+                grown[:row] = self._held
+                self._held = grown
+        self._rows[key] = row
+        self._held[row] = box
+        return row
 
     def extent(self) -> Bounds:
         """A box holding every box the index has held (``(inf, inf, -inf, -inf)`` before the first)."""
