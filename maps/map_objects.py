@@ -127,7 +127,7 @@ class MapObjects:
         """Remove the point ``id``; it must end no line (remove those first)."""
         if id not in self.graph:
             raise KeyError(f"{id!r} is not a point of the map")
-        ending = sorted(d["id"] for _, _, d in self.graph.edges(id, data=True))
+        ending = sorted(d["id"] for d in self.graph.adj[id].values())
         if ending:
             raise ValueError(f"point {id!r} still ends lines {ending}; remove them first")
         self.undo.record("removed point", id, self.graph.nodes[id])
@@ -160,7 +160,7 @@ class MapObjects:
         data.update(checked)
         if "xy" in checked or "kind" in checked:
             self.index.place_point(id)
-        moved = [line["id"] for _, _, line in self.graph.edges(id, data=True)] if "xy" in checked else []
+        moved = [line["id"] for line in self.graph.adj[id].values()] if "xy" in checked else []
         for line in moved:  # the point's lines moved with it
             self.index.place_line(line)
         self.changed(id, *moved)

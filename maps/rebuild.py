@@ -162,7 +162,7 @@ def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> No
         d = g.nodes[n]
         if d["kind"] not in SURFACE_KINDS:
             continue
-        lines = [e for _, _, e in g.edges(n, data=True)]
+        lines = list(g.adj[n].values())
         weakest = (lines[0] if len(lines) == 1 else min(lines, key=weakness))["mass"] if lines else bm.vacuous()
         mass = weakest if d["kind"] == "endpoint" else with_running(weakest, bm.running_mass(n), config.rule)
         if not _same(d, {"mass": mass}):
@@ -196,7 +196,7 @@ def _line_ends(bm: BeliefMap, points: Iterable[str], dissolved: Iterable[str]) -
     g = bm.graph
     at, rows = [], []
     for n in sorted(points):
-        for _, _, d in g.edges(n, data=True):
+        for d in g.adj[n].values():
             if d["id"] not in dissolved:
                 fit = d["fit"]
                 e = bm.ends(d["id"]).index(n)
@@ -259,7 +259,7 @@ def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[
     """
     g = bm.graph
     kept = []
-    for lid in sorted({d["id"] for n in affected for _, _, d in g.edges(n, data=True)} - set(dissolved)):
+    for lid in sorted({d["id"] for n in affected for d in g.adj[n].values()} - set(dissolved)):
         u, v = bm.ends(lid)
         d = g.edges[u, v]
         fixed = (None if u in affected else u, None if v in affected else v)

@@ -107,7 +107,7 @@ def refits(
         return {}, fits, NearEnds([], np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2)))
     ends = np.concatenate(list(fits.values()))
     points = surface_points_near(bm, ends, 3 * config.corners.distance + move)
-    neighbours = [(d["id"], n) for n in points for _, _, d in g.edges(n, data=True)]
+    neighbours = [(d["id"], n) for n in points for d in g.adj[n].values()]
     stored = np.array([g.edges[bm.ends(m)]["fit"] for m, _ in neighbours], dtype=float).reshape(-1, 2, 2)
     end = np.array([bm.ends(m).index(n) for m, n in neighbours], dtype=np.intp)
     rows: dict[str, list[int]] = {}
