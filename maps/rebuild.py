@@ -246,9 +246,17 @@ def _refit_in_place(
 def _same(data: dict[str, Any], attrs: dict[str, Any]) -> bool:
     """Whether setting ``attrs`` would leave the object's ``data`` as it is (masses compared by value)."""
     return all(
-        (data[k] is v or np.array_equal(data[k].dense(), v.dense())) if k == "mass" else data.get(k) == v
+        _same_mass(data[k], v) if k == "mass" else data.get(k) == v
         for k, v in sorted(attrs.items(), key=lambda kv: kv[0] == "mass")  # the mass last: the dearest to compare
     )
+
+
+def _same_mass(a: MassFunction, b: MassFunction) -> bool:
+    """Whether two mass functions are the same by value: one object, or the same dense vectors."""
+    if a is b:
+        return True
+    x, y = a.dense(), b.dense()
+    return x.shape == y.shape and bool((x == y).all())
 
 
 def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[str]) -> tuple[list[_Line], Removed]:
