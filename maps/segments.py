@@ -49,6 +49,24 @@ ROLES = ("", "absorbed", "support")
 """A raw segment, a raw segment absorbed into its line's support, a line's merged support."""
 
 
+class _Column:
+    """A column of :class:`SegmentStore` (the class attribute of its name): its rows, a read-only view."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        if name != self.name:
+            raise TypeError(f"column {self.name!r} bound to the name {name!r}")
+
+    def __get__(self, store: SegmentStore | None, owner: type | None = None) -> Any:
+        if store is None:
+            return self
+        view = store._data[self.name][: store._n]
+        view.setflags(write=False)  # the store's columns change only through the store
+        return view
+
+
 class SegmentStore:
     """Raw segments, one row each; a segment's id is its row number.
 
@@ -73,6 +91,9 @@ class SegmentStore:
     >>> len(store), store.length.tolist(), store.features["ir_return"].tolist()
     (1, [1.0], ['echo'])
     """
+
+    # the columns (COLUMNS + OPTIONAL_COLUMNS), each read as a read-only view of its rows
+    p, q, pose, truth, relation, mass, conflict, eliminated, line, role, seen = map(_Column, COLUMNS + OPTIONAL_COLUMNS)
 
     def __init__(self, frame: Frame) -> None:
         self._n = 0
@@ -102,11 +123,6 @@ class SegmentStore:
     def __len__(self) -> int:
         return self._n
 
-    def __getattr__(self, name: str) -> NDArray[Any]:
-        data = self.__dict__.get("_data")
-        if data is None or name not in data:
-            raise AttributeError(name)
-        return _read_only(data[name][: self._n])
 
     @property
     def features(self) -> dict[str, NDArray[Any]]:
@@ -380,6 +396,9 @@ def _boxes(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64
 
 def _file_by_pose(by_pose: dict[int, list[NDArray[np.intp]]], ids: NDArray[np.intp], pose: NDArray[np.intp]) -> None:
     """File the rows ``ids`` (ascending, after every row filed before), seen from ``pose``, under their poses."""
+    if len(ids) == 1:  # a consolidation's support: one row, no sorting
+        by_pose.setdefault(int(pose[0]), []).append(ids)
+        return
     order = np.argsort(pose, kind="stable")
     values, first = np.unique(pose[order], return_index=True)
     for value, rows in zip(values.tolist(), np.split(ids[order], first[1:]), strict=True):
