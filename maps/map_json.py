@@ -147,7 +147,14 @@ def _is_json(value: Any) -> bool:
             return all(map(math.isfinite, value))
         return all(map(_is_json, value))
     if kind is dict:
-        return all(type(k) is str for k in value) and all(map(_is_json, value.values()))
+        if not set(map(type, value)) <= _STR:
+            return False
+        kinds = set(map(type, value.values()))
+        if kinds <= _EXACT:  # scalars: one pass in C
+            return True
+        if kinds == _FLOAT:  # floats (a mass): finite
+            return all(map(math.isfinite, value.values()))
+        return all(map(_is_json, value.values()))
     return False
 
 
@@ -156,6 +163,9 @@ _EXACT = frozenset({bool, int, str, type(None)})
 
 _NUMBERS = frozenset({bool, int, float})
 """The scalar types :func:`math.isfinite` takes."""
+
+_FLOAT, _STR = frozenset({float}), frozenset({str})
+"""The values of a mass's dict, and the keys of any dict JSON carries."""
 
 
 def json_problem(value: Any, path: str) -> str | None:
