@@ -165,7 +165,7 @@ def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> No
         lines = list(g.adj[n].values())
         weakest = (lines[0] if len(lines) == 1 else min(lines, key=weakness))["mass"] if lines else bm.vacuous()
         mass = weakest if d["kind"] == "endpoint" else with_running(weakest, bm.running_mass(n), config.rule)
-        if not _same(d, {"mass": mass}):
+        if not _same_mass(d["mass"], mass):
             bm.set_attrs(n, mass=mass)
 
 
@@ -252,8 +252,9 @@ def _same(data: dict[str, Any], attrs: dict[str, Any]) -> bool:
 
 
 def _same_mass(a: MassFunction, b: MassFunction) -> bool:
-    """Whether two mass functions are the same by value: one object, or the same dense vectors."""
-    if a is b:
+    """Whether two mass functions are the same by value, their dense vectors equal: one object, the same focal
+    sets with the same masses (the quick test: then the vectors are equal), or else the same vectors."""
+    if a is b or (a.masks.tolist() == b.masks.tolist() and a.masses.tolist() == b.masses.tolist()):
         return True
     x, y = a.dense(), b.dense()
     return x.shape == y.shape and bool((x == y).all())
@@ -323,7 +324,7 @@ def _merged_line(
         "length": float(base.length[k]),
         "mass": mass.to_dict(),
     }
-    if (store.line[members] != lid).any():
+    if any(line != lid for line in store.line[members].tolist()):
         store.write(members, line=lid)
     if seen[k] > CONSOLIDATE_POSES and len(members) > 1:
         row = store.consolidate(members, merged.p[k], merged.q[k], lid, int(seen[k]))
