@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import bisect
+from itertools import repeat
 
 __all__ = ["ChangeJournal"]
 
@@ -27,7 +28,8 @@ class ChangeJournal:
         """A new version, in which the objects ``ids`` (maybe none) changed; past ``keep`` entries (and twice
         the map's size, say) the older half of the journal is forgotten."""
         self.version += 1
-        self._journal.extend((self.version, id) for id in ids)
+        if ids:
+            self._journal.extend(zip(repeat(self.version), ids))
         if len(self._journal) > keep:
             half = len(self._journal) // 2
             self._floor = self._journal[half - 1][0]

@@ -85,7 +85,8 @@ class SpatialIndex:
             self.remove(key)
         self._boxes[key] = box
         e = self._extent
-        self._extent = [min(e[0], box[0]), min(e[1], box[1]), max(e[2], box[2]), max(e[3], box[3])]
+        if box[0] < e[0] or box[1] < e[1] or box[2] > e[2] or box[3] > e[3]:  # the extent grows
+            self._extent = [min(e[0], box[0]), min(e[1], box[1]), max(e[2], box[2]), max(e[3], box[3])]
         row = self._row_for(key, box)
         cells = self._spans[key] = self._span(box)
         if cells is None:
