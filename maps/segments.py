@@ -123,7 +123,6 @@ class SegmentStore:
     def __len__(self) -> int:
         return self._n
 
-
     @property
     def features(self) -> dict[str, NDArray[Any]]:
         """The further per-segment features, name -> (N,) array (read-only)."""
