@@ -36,6 +36,7 @@ import shapely
 from numpy.typing import NDArray
 
 from evmap.maps.contour_free_space import RayParams, ray_tally
+from evmap.maps.map_json import gc_paused
 from evmap.maps.noise import COMPUTED, judge, unsettled
 from evmap.maps.observation import Observation
 from evmap.maps.rebuild import rebuild, refresh_points
@@ -86,10 +87,11 @@ class PoseOutcome:
 
 
 def fold_observation(bm: BeliefMap, obs: Observation, config: Config) -> PoseOutcome:
-    """Fold one observation into the map by the paper's pipeline (see the module doc), all or nothing."""
+    """Fold one observation into the map by the paper's pipeline (see the module doc), all or nothing, the
+    cyclic garbage collector paused (:func:`~evmap.maps.map_json.gc_paused`)."""
     check_observation(bm, obs, config)
     features = features_checkpoint(bm)
-    with bm.transaction():  # all or nothing: a failure half-way leaves the map as it was
+    with gc_paused(), bm.transaction():  # all or nothing: a failure half-way leaves the map as it was
         bm.add_pose(int(obs.pose_index))
         remember(bm, obs)
         try:
