@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from evidential import MassFunction
 from evmap.maps.corners import find_corners
+from evmap.maps.map_json import MassCodec
 from evmap.maps.merging import Merged, merge_segments, related_pairs
 from evmap.maps.noise import NoiseEvidence, noise_evidence
 from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, surface_points_near, unmoved
@@ -51,11 +52,12 @@ Removed = list[tuple[tuple[float, float], list[dict[str, Any]], MassFunction | N
 
 @dataclass(frozen=True, eq=False)
 class _Evidence:
-    """The noise-elimination evidence of the merged lines: the verdicts, their fused masses as mass functions,
-    and how many poses saw each line."""
+    """The noise-elimination evidence of the merged lines: the verdicts, their fused masses as mass functions
+    and as ``{FOCAL: float}`` (:meth:`MassFunction.to_dict`, encoded in bulk), and how many poses saw each line."""
 
     base: NoiseEvidence
     masses: list[MassFunction]
+    dicts: list[dict[str, float]]
     seen: NDArray[np.intp]
 
 
@@ -252,8 +254,7 @@ def _same(data: dict[str, Any], attrs: dict[str, Any]) -> bool:
 
 
 def _same_mass(a: MassFunction, b: MassFunction) -> bool:
-    """Whether two mass functions are the same by value, their dense vectors equal: one object, the same focal
-    sets with the same masses (the quick test: then the vectors are equal), or else the same vectors."""
+    """Whether two mass functions have equal dense vectors (equal focal sets and masses, the quick test, do)."""
     if a is b or (a.masks.tolist() == b.masks.tolist() and a.masses.tolist() == b.masses.tolist()):
         return True
     x, y = a.dense(), b.dense()
@@ -301,7 +302,7 @@ def _merged_evidence(bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, conf
     space = bm.open_space_parts_near((*ends.min(axis=0), *ends.max(axis=0))) if len(pool) else shapely.MultiPolygon()
     base = noise_evidence(merged.p, merged.q, space, config, features)
     masses = MassFunction.from_rows(bm.frame, range(1 << len(bm.frame)), base.fused, open_world=True)  # in bulk
-    return _Evidence(base, masses, seen)
+    return _Evidence(base, masses, MassCodec(bm.frame).encode(masses), seen)
 
 
 def _merged_line(
@@ -316,13 +317,13 @@ def _merged_line(
     and its members: the rows, or their consolidated support if more than :data:`CONSOLIDATE_POSES` poses
     saw them."""
     store = bm.segments
-    base, seen, mass = evidence.base, evidence.seen, evidence.masses[k]
+    base, seen, mass = evidence.base, evidence.seen, evidence.masses[k]  # each merged line k is taken once
     first = {
         "stage": NOISE_STAGE,
         "poses": sorted(set(store.pose[members].tolist())),
         "relation": str(base.relation[k]),
         "length": float(base.length[k]),
-        "mass": mass.to_dict(),
+        "mass": evidence.dicts[k],
     }
     if any(line != lid for line in store.line[members].tolist()):
         store.write(members, line=lid)
