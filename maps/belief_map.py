@@ -379,9 +379,10 @@ class BeliefMap:
         """The map of :meth:`to_data`'s layout (:func:`evmap.maps.map_file.read_map`)."""
         return cls.from_parts(map_file.read_map(data, name))
 
-    def save(self, path: str | Path) -> None:
-        """:func:`evmap.maps.map_file.write_map`: write ``map.json``, atomically and losslessly."""
-        map_file.write_map(self, path)
+    def save(self, path: str | Path, *, sync: bool = True) -> None:
+        """:func:`evmap.maps.map_file.write_map`: write ``map.json``, atomically and losslessly (``sync``: on the
+        disk before it replaces the old file)."""
+        map_file.write_map(self, path, sync=sync)
 
     @classmethod
     def load(cls, path: str | Path) -> BeliefMap:

@@ -69,12 +69,13 @@ def map_data(bm: BeliefMap) -> dict[str, Any]:
         return {"directed": False, "multigraph": False, "graph": graph, "nodes": nodes, "edges": edges}
 
 
-def write_map(bm: BeliefMap, path: str | Path) -> None:
+def write_map(bm: BeliefMap, path: str | Path, *, sync: bool = True) -> None:
     """Write the map to ``path`` as JSON, atomically (a crash leaves the old file or the new one).
 
     Lossless: floats are written in their shortest round-tripping form and read
     back bit-exact; every attribute and the history round-trip (tuples come back
-    as lists, except ``xy``).
+    as lists, except ``xy``). ``sync=False``: not forced to the disk before the rename, for a
+    file in a directory that is itself made to appear whole (a run's staging).
     """
     map_json.check_json({k: v for k, v in bm.graph.graph.items() if k not in GRAPH_KEYS}, "graph")
     segments = bm.segments
@@ -88,7 +89,7 @@ def write_map(bm: BeliefMap, path: str | Path) -> None:
     except TypeError as exc:  # an attribute changed in the graph directly, bypassing the checks
         raise ValueError(f"cannot save the map to {path}: {exc}") from None
     digest = hashlib.sha256(text).hexdigest().encode()
-    write_atomic(path, text[:-1] + b"," + CHECKSUM_KEY + digest + b'"}')
+    write_atomic(path, text[:-1] + b"," + CHECKSUM_KEY + digest + b'"}', sync=sync)
 
 
 def read_file(path: str | Path) -> MapParts:

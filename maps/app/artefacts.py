@@ -35,7 +35,7 @@ def write_staged(run: Run, staging: Staging, *, figures: bool = True, figure_for
     summary = report(run)
     write_text_atomic(staging.path / "report.json", json.dumps(summary, indent=2) + "\n")
     write_text_atomic(staging.path / "segments.json", json.dumps(segment_records(run)) + "\n")
-    run.map.save(staging.path / "map.json")
+    run.map.save(staging.path / "map.json", sync=False)  # as the others: the staging appears whole
     if run.log is not None:  # a map of a robot log: the ROS map_server pair too
         run.map.save_ros_map(staging.path / "map")
     if figures:
