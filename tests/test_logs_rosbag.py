@@ -490,3 +490,23 @@ def test_a_few_readings_far_beyond_range_max_and_minus_inf_are_no_returns(tmp_pa
     )
     (record,) = list(read_rosbag(path))
     assert np.isnan(record.scan.ranges[[1, 2]]).all() and (record.scan.ranges[[0, 3, 4]] == 2.0).all()
+
+
+def test_a_range_glitch_is_no_echo_but_a_topic_of_implausible_readings_is_a_wrong_unit(tmp_path: Path) -> None:
+    def bag(name: str, values: list[float]) -> Path:
+        messages = [(*ODOM, 1.0, odometry(1.0, 0.0, 0.0, 0.0))]
+        for k, value in enumerate(values):
+            t = 1.1 + 0.1 * k
+            messages += [(*RANGE, t, sonar(t, value)), (*SCAN, t + 0.01, scan(t + 0.01, [1.0, 1.0, 1.0]))]
+        return write_bag(tmp_path / name, 1, messages)
+
+    records = list(read_rosbag(bag("glitch.bag", [1.5, 65.535, 2.0, -1.0, 1.2])))  # a driver's 0xFFFF mm, a -1
+    assert [r.sonar.ranges[0] if r.sonar else None for r in records] == pytest.approx(
+        [1.5, np.nan, 2.0, np.nan, 1.2], nan_ok=True
+    )
+    with pytest.raises(
+        LogError,
+        match=r"/sonar@1\.100000000: Range reading 150 m is negative or over twice max_range 5 "
+        r"\(10 of the first 10 readings on /sonar are\): is the unit 'm' right\?",
+    ):
+        list(read_rosbag(bag("centimetres.bag", [150.0] * 11 + [120.0] * 5)))

@@ -14,6 +14,9 @@ What :func:`read_rosbag` reads, in the bag's record order, each message placed b
   above ``max_range``, ``+inf`` or NaN is no echo; ``-inf`` (REP 117: too close to
   measure) and a reading below ``min_range`` are an echo at ``min_range`` (an
   obstacle closer than the sensor can measure); ``field_of_view`` is the beam width.
+  A reading that is negative or over twice ``max_range`` is no echo too (a driver's
+  glitch), but a topic most of whose readings are so (among its first
+  :data:`RANGE_SAMPLE`, or all of them in a shorter bag) is an error: the unit is wrong.
 - Poses: with ``odom_topic`` (default: the bag's only ``nav_msgs/Odometry`` topic,
   if it has one) the robot's pose is the odometry pose, its frame the
   odometry's ``child_frame_id``, and the laser sits on it as tf says. Without
@@ -85,10 +88,14 @@ __all__ = [
     "LASER_SCAN",
     "ODOMETRY",
     "RANGE",
+    "RANGE_SAMPLE",
     "TF",
     "RosbagOptions",
     "read_rosbag",
 ]
+
+RANGE_SAMPLE = 10
+"""The Range readings of a topic that decide whether its unit is wrong (see the module doc)."""
 
 LASER_SCAN = "sensor_msgs/msg/LaserScan"
 RANGE = "sensor_msgs/msg/Range"
@@ -224,6 +231,7 @@ def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
         waiting = WaitingScans(places)
         latest: dict[str, Reading] = {}
         fresh = False  # a Range message came since the last scan read
+        implausible = _Implausible(options.unit)
         ring: RangeReadings | None = None
         carried: dict[str, Reading] | None = None  # the readings of scans that could not be placed
         index = skipped = 0
@@ -239,6 +247,7 @@ def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
                     places.add_odometry(msg, stamp, where)
                 elif topic in range_topics:
                     latest[topic], fresh = _range(msg, where, options.unit), True
+                    implausible.add(topic, msg, where)
                 elif topic == scan_topic:
                     scan = _scan(msg, where, options.unit)
                     readings = dict(latest) if fresh else None
@@ -267,6 +276,7 @@ def _records(path: Path, options: RosbagOptions) -> Iterator[LogRecord]:
                     index, LaserScan(held.stamp, laser, angles, ranges, scan.max_range), robot, ring, skipped=skipped
                 )
                 index += 1
+        implausible.check()
         if skipped and not index:
             hint = "" if odom_topic else f" (the world frame: --world-frame; tf's topmost frames: {tf.roots()})"
             raise LogError(
@@ -332,11 +342,8 @@ def _range(msg: Any, where: str, unit: Unit) -> Reading:
         raise LogError(f"{where}: Range max_range {high:g} is not a positive number")
     if not (np.isfinite(low) and 0 <= low < high):
         raise LogError(f"{where}: Range min_range {low:g} is not a number from 0 to max_range {high:g}")
-    if np.isfinite(value) and (value < 0 or value > 2 * high):
-        raise LogError(
-            f"{where}: Range reading {value:g} {unit} is negative or over twice max_range {high:g}: "
-            f"is the unit {unit!r} right?"
-        )
+    if _implausible(value, high):  # no echo; the caller counts them (_Implausible)
+        return header_stamp(msg), frame_name(msg.header.frame_id), np.nan, high * scale, fov
     if value == -np.inf or value < low:  # REP 117: an obstacle closer than the sensor can measure
         echo = low * scale
     elif value < high:
@@ -344,6 +351,46 @@ def _range(msg: Any, where: str, unit: Unit) -> Reading:
     else:  # +inf, NaN, at or beyond max_range: no echo
         echo = np.nan
     return header_stamp(msg), frame_name(msg.header.frame_id), echo, high * scale, fov
+
+
+def _implausible(value: float, high: float) -> bool:
+    """Whether a Range reading is negative or over twice its ``max_range``."""
+    return bool(np.isfinite(value) and (value < 0 or value > 2 * high))
+
+
+class _Implausible:
+    """Range readings negative or over twice their ``max_range``, per topic: a glitch now and then is no echo, most
+    of a topic's readings so (of its first :data:`RANGE_SAMPLE`, or of all in a shorter bag) a wrong unit."""
+
+    def __init__(self, unit: Unit) -> None:
+        self.unit = unit
+        self.counts: dict[str, list[int]] = {}  # topic -> [implausible, readings]
+        self.first: dict[str, str] = {}  # topic -> what its first implausible reading was, and where
+
+    def add(self, topic: str, msg: Any, where: str) -> None:
+        value, high = float(msg.range), float(msg.max_range)
+        odd = _implausible(value, high)
+        count = self.counts.setdefault(topic, [0, 0])
+        if count[1] == RANGE_SAMPLE:  # decided
+            return
+        count[0] += odd
+        count[1] += 1
+        if odd and topic not in self.first:
+            self.first[topic] = (
+                f"{where}: Range reading {value:g} {self.unit} is negative or over twice max_range {high:g}"
+            )
+        if count[1] == RANGE_SAMPLE:
+            self.check(topic)
+
+    def check(self, *topics: str) -> None:
+        """Refuse the first of the ``topics`` (all, if none named) most of whose readings are implausible."""
+        for topic in topics or sorted(self.counts):
+            odd, total = self.counts[topic]
+            if 2 * odd > total:
+                raise LogError(
+                    f"{self.first[topic]} ({odd} of the first {total} readings on {topic} are): "
+                    f"is the unit {self.unit!r} right?"
+                )
 
 
 def _ring(
