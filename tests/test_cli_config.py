@@ -55,6 +55,14 @@ def test_check_the_example_sensor(capsys):
     assert "noise_elimination: sonar_open_space, lsl_length, infrared" in out
 
 
+def test_a_negative_value_in_exponent_form_is_a_value_not_an_option(capsys):
+    for value in ("-1e3", "-2.5E-1"):
+        code, out, err = run(capsys, "config", "explain", PAPER, "--source", "lsl_length", "--value", value)
+        assert (code, err) == (0, "") and out.startswith(f"lsl_length (ramp on 'length'), length = {value}:")
+    code, _, err = run(capsys, "config", "explain", PAPER, "--source", "lsl_length", "--value", "-inf")
+    assert code == 2 and "expected finite numbers, got -inf" in err  # a value, refused as a value
+
+
 def test_explain_a_ramp_value_against_every_row_of_table_1(capsys):
     code, out, err = run(capsys, "config", "explain", PAPER, "--source", "lsl_length", "--value", "0.2")
     assert (code, err) == (0, "")

@@ -1,42 +1,33 @@
 """The ``evmap`` command: one function per subcommand.
 
 ``evmap run [SCENARIO] [--config FILE] [--rule NAME] [--out DIR] [--force] [--json] [--figures FORMAT]``
-    run the paper's experiment on a scenario (default: the embedded corridor)
-    and write ``report.json``, ``segments.json``, ``map.json`` and the figures
-    (``--figures png|svg|pdf|none``, default png; ``--no-figures`` is ``none``)
-    into DIR (``docs/SCENARIO.md``); ``--json`` also prints the report on
+    run the paper's experiment on a scenario (default: the embedded corridor) and write ``report.json``,
+    ``segments.json``, ``map.json`` and the figures (``--figures png|svg|pdf|none``, default png;
+    ``--no-figures`` is ``none``) into DIR (``docs/SCENARIO.md``); ``--json`` also prints the report on
     standard output, and nothing else goes there.
 ``evmap log FILE [--out DIR] [--every N] [--limit N] [--unit U] [--readings DIR] [--config FILE] [--rule NAME] [--json] [--figures FORMAT] [--force] [--scan-topic T] [--odom-topic T] [--range-topics T,...] [--world-frame F] [--base-frame F]``
-    a belief map from a robot log (CARMEN, g2o, ROS bag; poses from the log,
-    the laser as the contour sensor) with a progress bar on standard error:
-    the same artefacts as ``run``, and the ROS map pair ``map.pgm``/``map.yaml``
-    (``docs/SCENARIO.md``, logs section); ``--readings DIR`` gives the readings of
-    the config's declared (YAML) sensors, ``DIR/scan-N.npz`` per scan used. The
-    topic and frame flags choose what a ROS bag is read from
-    (:class:`~evmap.sources.logs.rosbag.RosbagOptions`); another log refuses them.
+    a belief map from a robot log (CARMEN, g2o, ROS bag; poses from the log, the laser as the contour sensor)
+    with a progress bar on standard error: the same artefacts as ``run``, and the ROS map pair
+    ``map.pgm``/``map.yaml`` (``docs/SCENARIO.md``, logs section); ``--readings DIR`` gives the readings of the
+    config's declared (YAML) sensors, ``DIR/scan-N.npz`` per scan used. The topic and frame flags choose what a
+    ROS bag is read from (:class:`~evmap.sources.logs.rosbag.RosbagOptions`); another log refuses them.
 ``evmap compare --rules dempster,yager,... --worlds N --seed S --out DIR [--scheduler ADDRESS]``
     every rule on the same scans of N generated worlds: per-rule and per-world
     tables (CSV, Markdown) and plots (see :mod:`evmap.maps.app.compare`).
 ``evmap config check [FILE]``
-    validate a config file and print every frame, source, table and stage
-    parameter as it was understood.
+    validate a config file and print every frame, source, table and stage parameter as it was understood.
 ``evmap config explain [FILE] --source NAME --value V``
-    print what a source gives for one feature value, and what that combines to
-    with each row of the other sources of its stages, under the config's rule.
-``evmap rules``
-    list the combination rules, built in or from installed plugins, with where
-    each comes from, and the plugins' rules that were refused and why.
-``evmap sources``
-    list the kinds of evidence sources and of sensors, built in or from plugins,
-    with where each comes from, and the refused ones.
+    print what a source gives for one feature value (``-1e3`` too, which argparse alone would take for an
+    option), and what that combines to with each row of the other sources of its stages, under the config's rule.
+``evmap rules``, ``evmap sources``
+    list the combination rules, or the kinds of evidence sources and of sensors, built in or from installed
+    plugins, with where each comes from, and the plugins' ones that were refused and why.
 
-``--config`` takes a file or a packaged config by name: ``default`` (what run, log
-and compare use when not told) or ``paper`` (the paper's method; a file named so is
-``./paper``); ``config check``
-and ``config explain`` read ``paper`` when given no ``FILE``. Normal output goes to
-standard output. A mistake in the input (a bad file, an unknown source, a value
-a source cannot judge) prints ``evmap: error: <message>`` on standard error and
-exits with status 2, without a traceback.
+``--config`` takes a file or a packaged config by name: ``default`` (what run, log and compare use when not
+told) or ``paper`` (the paper's method; a file named so is ``./paper``); ``config check`` and ``config explain``
+read ``paper`` when given no ``FILE``. Normal output goes to standard output. A mistake in the input (a bad file,
+an unknown source, a value a source cannot judge) prints ``evmap: error: <message>`` on standard error and exits
+with status 2, without a traceback.
 """
 
 from __future__ import annotations
@@ -45,6 +36,7 @@ import argparse
 import gc
 import json
 import os
+import re
 import signal
 import sys
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -98,7 +90,7 @@ def _command(argv: Sequence[str] | None) -> int:
     frozen = gc.get_freeze_count()
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        args = parser.parse_args(_negative_values(sys.argv[1:] if argv is None else argv))
     except SystemExit as exc:  # argparse printed the usage error (2) or the help (0)
         return exc.code if isinstance(exc.code, int) else 2
     handler: Handler = args.handler
@@ -114,6 +106,19 @@ def _command(argv: Sequence[str] | None) -> int:
         signal.signal(signal.SIGTERM, previous)
         if argv is not None and not frozen:
             gc.unfreeze()
+
+
+def _negative_values(argv: Sequence[str]) -> list[str]:
+    """``--value -1e3`` as ``--value=-1e3``: argparse reads a word starting with ``-`` as an option unless it is a
+    plain negative number (``-0.5``), which ``-1e3`` and ``-inf`` are not."""
+    out = list(argv)
+    for i in reversed(range(1, len(out))):
+        if out[i - 1] == "--value" and _NEGATIVE.fullmatch(out[i]):
+            out[i - 1 : i + 1] = [f"--value={out[i]}"]
+    return out
+
+
+_NEGATIVE = re.compile(r"-(inf(inity)?|nan|(\d+\.?\d*|\.\d+)(e[-+]?\d+)?)", re.IGNORECASE)
 
 
 @contextmanager
@@ -226,8 +231,7 @@ def build_parser() -> argparse.ArgumentParser:
     explain.add_argument(
         "--value",
         required=True,
-        help="the feature value: a number for a ramp, a category for a table (a negative number in exponent "
-        "form as --value=-1e3)",
+        help="the feature value: a number for a ramp, a category for a table",
     )
     explain.set_defaults(handler=config_explain)
 
@@ -396,8 +400,7 @@ def _usage(parser: argparse.ArgumentParser) -> int:
 
 
 class _Version(argparse.Action):
-    """``--version``: the installed evmap's version, looked up only when asked (``importlib.metadata`` is slow to
-    import, and no other command needs it)."""
+    """``--version``: the installed evmap's version, looked up when asked (``importlib.metadata`` is slow to import)."""
 
     def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, help: str | None = None) -> None:
         super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, help=help)
