@@ -28,8 +28,7 @@ import copy
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-import networkx as nx
-
+from evmap.maps.map_graph import MapGraph
 from evmap.maps.map_objects import MapObjects
 from evmap.maps.open_space_pieces import OpenSpacePieces
 from evmap.maps.segments import SegmentStore
@@ -39,7 +38,7 @@ __all__ = ["all_or_nothing"]
 
 @contextmanager
 def all_or_nothing(
-    objects: MapObjects, space: OpenSpacePieces, segments: SegmentStore, graph: nx.Graph
+    objects: MapObjects, space: OpenSpacePieces, segments: SegmentStore, graph: MapGraph
 ) -> Iterator[None]:
     """The changes to ``objects``, ``space``, ``segments`` and ``graph``'s ids and poses inside the block,
     undone if it raises (then the exception goes on)."""

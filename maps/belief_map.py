@@ -1,4 +1,4 @@
-"""The line-corner belief map: a networkx graph of points and lines with mass functions.
+"""The line-corner belief map: a graph of points and lines with mass functions.
 
 Nodes are points (``corner``, free ``endpoint``, ``unidentified`` sonar target),
 edges are lines (``kind: "line"``). Every node and edge carries
@@ -21,8 +21,9 @@ lines with their spatial indexes, undo log, change journal and running masses
 (:mod:`~evmap.maps.map_objects`), the open space in pieces
 (:mod:`~evmap.maps.open_space_pieces`), the raw segments
 (:mod:`~evmap.maps.segments`). Change the map through its methods;
-:attr:`BeliefMap.graph` is for reading, by algorithms written as plain functions
-of a graph. Its other methods are one-line calls of the free functions around
+:attr:`BeliefMap.graph` (:mod:`~evmap.maps.map_graph`: networkx's layout in plain
+dicts, ``to_networkx()`` for networkx's algorithms) is for reading, by algorithms
+written as plain functions of a graph. Its other methods are one-line calls of the free functions around
 it: the pipeline (:mod:`evmap.maps.pipeline`), the planner's queries
 (:mod:`evmap.maps.planner`), the occupancy grid (:mod:`evmap.maps.occupancy`)
 and the map file (:mod:`evmap.maps.map_file`, ``map.json`` of ``docs/SCENARIO.md``).
@@ -35,7 +36,6 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-import networkx as nx
 import numpy as np
 import shapely
 from numpy.typing import NDArray
@@ -46,6 +46,7 @@ from evmap.maps.all_or_nothing import all_or_nothing
 from evmap.maps.free_space import free_space, surface_points
 from evmap.maps.map_checks import check_extras
 from evmap.maps.map_format import GRAPH_KEYS, ID_PREFIXES, SCHEMA_VERSION, MapParts
+from evmap.maps.map_graph import MapGraph
 from evmap.maps.map_objects import MapObjects
 from evmap.maps.observation import Observation
 from evmap.maps.occupancy import OccupancyParams
@@ -61,7 +62,7 @@ __all__ = ["BeliefMap", "new_map"]
 
 
 class BeliefMap:
-    """The paper's line-corner map with beliefs, on a :class:`networkx.Graph`.
+    """The paper's line-corner map with beliefs, on a :class:`~evmap.maps.map_graph.MapGraph`.
 
     Parameters
     ----------
@@ -82,7 +83,7 @@ class BeliefMap:
     >>> [line.id for line in bm.lines(min_belief=0.5)], bm.nearest_obstacle((1.0, 0.5))
     (['L1'], (0.5, 'L1'))
     >>> new = bm.fold("L1", MassFunction(bm.frame, {"real": 0.5, "real|noise": 0.5}), {"pose": 0})
-    >>> round(bm["L1"].belief, 2), bm.graph.edges["C1", "E1"]["history"][0]["rule"]
+    >>> round(bm["L1"].belief, 2), bm.graph.edge("C1", "E1")["history"][0]["rule"]
     (0.8, 'dempster')
     >>> bm.open_space = shapely.box(-1, -1, 3, 2)  # what the sonar saw free
     >>> bm.is_segment_clear((0.0, 1.0), (2.0, 1.0), clearance=0.2), bm.is_segment_clear((1.0, 1.0), (1.0, 0.1))
@@ -105,7 +106,7 @@ class BeliefMap:
             raise ValueError(f"rule must be one of {sorted(RULES)}, got {rule!r}")
         check_extras(attrs, GRAPH_KEYS, "graph")
         self._frame = frame
-        self._graph = nx.Graph(
+        self._graph = MapGraph(
             schema_version=SCHEMA_VERSION,
             frame=list(frame.elements),
             rule=rule,
@@ -139,8 +140,11 @@ class BeliefMap:
         return self._graph.graph["rule"]
 
     @property
-    def graph(self) -> nx.Graph:
-        """The networkx graph (nodes: points by id; edges: lines). Read it; change the map by the methods."""
+    def graph(self) -> MapGraph:
+        """The points (nodes by id) and lines (edges) as dicts; read them, change the map by its methods.
+
+        ``bm.graph.to_networkx()`` is a :class:`networkx.Graph` of it for networkx's algorithms.
+        """
         return self._graph
 
     @property

@@ -46,8 +46,8 @@ def map_data(bm: BeliefMap) -> dict[str, Any]:
     """
     with map_json.gc_paused():
         g = bm.graph
-        points = [d for _, d in g.nodes(data=True)]
-        adj = dict(g.adjacency())
+        points = list(g.nodes.values())
+        adj = g.adj
         ends = [bm.ends(id) for id in bm.line_ids()]
         lines = [adj[u][v] for u, v in ends]
         codec = map_json.MassCodec(bm.frame)

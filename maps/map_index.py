@@ -5,8 +5,8 @@ lines (id -> end points) it is given, makes its three
 :class:`~evmap.maps.spatial.SpatialIndex` from them on first use, then follows
 each change the map tells it of.
 
->>> import networkx as nx
->>> g = nx.Graph(); g.add_node("A", xy=(0.0, 0.0), kind="corner"); g.add_node("B", xy=(4.0, 0.0), kind="endpoint")
+>>> from evmap.maps.map_graph import MapGraph
+>>> g = MapGraph(); g.add_node("A", xy=(0.0, 0.0), kind="corner"); g.add_node("B", xy=(4.0, 0.0), kind="endpoint")
 >>> g.add_edge("A", "B"); lines = {"L1": ("A", "B")}
 >>> index = MapIndex(g, lines)
 >>> sorted(index.near((3.5, -0.5, 4.5, 0.5))), sorted(index.near((1, -1, 2, 1), "lines")), index.extent()
@@ -17,10 +17,10 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 
+from evmap.maps.map_graph import MapGraph
 from evmap.maps.spatial import Bounds, SpatialIndex
 
 __all__ = ["POINT_CELL", "MapIndex"]
@@ -33,7 +33,7 @@ rebuilds look for points within a few centimetres of line ends, where clutter pa
 class MapIndex:
     """Indexes of the points, lines and unidentified points (``targets``) of a graph and its lines."""
 
-    def __init__(self, graph: nx.Graph, lines: Mapping[str, tuple[str, str]]) -> None:
+    def __init__(self, graph: MapGraph, lines: Mapping[str, tuple[str, str]]) -> None:
         self._graph = graph
         self._lines = lines
         self._indexes: dict[str, SpatialIndex] | None = None  # made on first use
@@ -94,8 +94,8 @@ class MapIndex:
         if self._indexes is None:
             g = self._graph
             ids = list(g)
-            xy = np.array([xy for _, xy in g.nodes(data="xy")], dtype=np.float64).reshape(-1, 2)
-            target = np.array([kind == "unidentified" for _, kind in g.nodes(data="kind")], dtype=bool)
+            xy = np.array([d.get("xy") for d in g.nodes.values()], dtype=np.float64).reshape(-1, 2)
+            target = np.array([d.get("kind") == "unidentified" for d in g.nodes.values()], dtype=bool)
             row = dict(zip(ids, range(len(ids)), strict=True))
             ends = np.array([(row[u], row[v]) for u, v in self._lines.values()], dtype=np.intp).reshape(-1, 2)
             p, q = xy[ends[:, 0]], xy[ends[:, 1]]

@@ -8,10 +8,10 @@ checked (:mod:`evmap.maps.map_checks`), followed by the spatial indexes
 (:mod:`evmap.maps.change_journal`) and, for folded evidence, to the running
 masses (:mod:`evmap.maps.running_mass`).
 
->>> import networkx as nx
+>>> from evmap.maps.map_graph import MapGraph
 >>> from evidential import Frame, MassFunction
 >>> frame = Frame(["real", "noise"])
->>> objects = MapObjects(nx.Graph(rule="dempster"), frame)
+>>> objects = MapObjects(MapGraph(rule="dempster"), frame)
 >>> m = MassFunction(frame, {"real": 0.5, "real|noise": 0.5})
 >>> objects.add_point("A", (0, 0), "corner", m); objects.add_point("B", (1, 0), "endpoint", m)
 >>> objects.add_line("L1", "A", "B", m)
@@ -24,13 +24,12 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-import networkx as nx
-
 from evidential import Frame, MassFunction, combine, conflict
 from evmap.maps import map_json, planner
 from evmap.maps.change_journal import ChangeJournal
 from evmap.maps.map_checks import check_extras, checked_history, checked_kind
 from evmap.maps.map_format import ID_PREFIXES, LINE_KEYS, LINE_KIND, POINT_KEYS
+from evmap.maps.map_graph import MapGraph
 from evmap.maps.map_index import MapIndex
 from evmap.maps.planner import Line, Point
 from evmap.maps.running_mass import RunningMasses
@@ -43,7 +42,7 @@ class MapObjects:
     """The graph's points and lines (``lines``: id -> end points) with their indexes, undo log, journal and
     running masses."""
 
-    def __init__(self, graph: nx.Graph, frame: Frame) -> None:
+    def __init__(self, graph: MapGraph, frame: Frame) -> None:
         self.graph = graph
         self.frame = frame
         self.lines: dict[str, tuple[str, str]] = {}
@@ -103,7 +102,7 @@ class MapObjects:
         if u == v:
             raise ValueError(f"line {id!r}: needs two different end points, got {u!r} twice")
         if self.graph.has_edge(u, v):
-            other = self.graph.edges[u, v]["id"]
+            other = self.graph.edge(u, v)["id"]
             raise ValueError(f"line {id!r}: points {u!r} and {v!r} are already joined by {other!r}")
         mass = self.check_mass(mass, id)
         self.graph.add_edge(u, v, id=id, kind=LINE_KIND, mass=mass, history=checked_history(history, id), **attrs)
@@ -198,7 +197,7 @@ class MapObjects:
 
         >>> from evidential import Frame, MassFunction
         >>> frame = Frame(["real", "noise"])
-        >>> objects = MapObjects(nx.Graph(rule="dempster"), frame)
+        >>> objects = MapObjects(MapGraph(rule="dempster"), frame)
         >>> objects.add_point("A", (0, 0), "corner", MassFunction(frame, {"real|noise": 1.0}))
         >>> objects.running_mass("A") is None
         True
@@ -281,8 +280,8 @@ class MapObjects:
     def fill(self, nodes: list[dict[str, Any]], ends: list[tuple[str, str]], edges: list[dict[str, Any]]) -> None:
         """Put checked points (their attributes, in this order) and lines (ends and attributes) in the graph."""
         g = self.graph
-        g.add_nodes_from([d["id"] for d in nodes])
-        for (_, attrs), d in zip(g.nodes(data=True), nodes, strict=True):  # in this order
-            attrs.update(d)
-        g.add_edges_from([(u, v, d) for (u, v), d in zip(ends, edges, strict=True)])
+        for d in nodes:
+            g.add_node(d["id"], **d)
+        for (u, v), d in zip(ends, edges, strict=True):
+            g.add_edge(u, v, **d)
         self.lines.update(zip([d["id"] for d in edges], ends, strict=True))

@@ -12,8 +12,9 @@ place seen a hundred times costs what a place seen a few times does. The map's
 graph attribute ``open_space`` holds the union as GeoJSON-like coordinates,
 written whenever the union is made.
 
->>> import networkx as nx, shapely
->>> space = OpenSpacePieces(nx.Graph())
+>>> import shapely
+>>> from evmap.maps.map_graph import MapGraph
+>>> space = OpenSpacePieces(MapGraph())
 >>> space.add(shapely.box(0, 0, 2, 1)); space.add(shapely.box(1, 0, 3, 1))
 >>> round(space.union().area, 6), len(space), space.near((5, 5, 6, 6)).is_empty, len(space.parts_near((0, 0, 1, 1)))
 (3.0, 2, True, 2)
@@ -25,10 +26,10 @@ from __future__ import annotations
 
 import math
 
-import networkx as nx
 import shapely
 
 from evmap.maps import map_json
+from evmap.maps.map_graph import MapGraph
 from evmap.maps.spatial import Bounds, SpatialIndex
 
 __all__ = ["MANY", "TILE", "OpenSpacePieces"]
@@ -46,7 +47,7 @@ class OpenSpacePieces:
     """Pieces whose union is the open space, their boxes' index (made on first use) and their union (when read),
     mirrored in ``graph``'s attribute ``open_space``."""
 
-    def __init__(self, graph: nx.Graph) -> None:
+    def __init__(self, graph: MapGraph) -> None:
         self.graph = graph
         self._pieces: list[shapely.Geometry] = []
         self._index: SpatialIndex | None = None

@@ -90,7 +90,7 @@ class MapState:
 
     def __init__(self, bm: BeliefMap) -> None:
         graph, real = bm.graph, bm.frame.mask("real")
-        xy = dict(graph.nodes(data="xy"))
+        xy = {n: d.get("xy") for n, d in graph.nodes.items()}
         self.line_ids = list(bm.line_ids())
         self.ends = [bm.ends(id) for id in self.line_ids]
         self.line_mass = [graph.adj[u][v]["mass"] for u, v in self.ends]
@@ -102,8 +102,8 @@ class MapState:
         self.point_ids = list(xy)
         self.point_xy = list(xy.values())
         self.xy = np.array(self.point_xy, dtype=float).reshape(-1, 2)
-        self.point_mass = [m for _, m in graph.nodes(data="mass")]
-        self.point_kind = np.array([k for _, k in graph.nodes(data="kind")], dtype=object)
+        self.point_mass = [d.get("mass") for d in graph.nodes.values()]
+        self.point_kind = np.array([d.get("kind") for d in graph.nodes.values()], dtype=object)
         self.point_bel, self.point_pl = belief_plausibility(self.point_mass, real)
 
     def line(self, i: int) -> Line:
@@ -162,9 +162,9 @@ class ObstacleTree:
 
     def __init__(self, bm: BeliefMap, level: float) -> None:
         g, real = bm.graph, bm.frame.mask("real")
-        xy_of = dict(g.nodes(data="xy"))
-        edges = list(g.edges(data=True))
-        targets = [n for n, kind in g.nodes(data="kind") if kind == "unidentified"]
+        xy_of = {n: d.get("xy") for n, d in g.nodes.items()}
+        edges = list(g.edges())
+        targets = [n for n, d in g.nodes.items() if d.get("kind") == "unidentified"]
         lines = [d["id"] for _, _, d in edges]
         masses = [d["mass"] for _, _, d in edges] + [g.nodes[n]["mass"] for n in targets]
         keep = belief_plausibility(masses, real)[0] >= level

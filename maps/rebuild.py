@@ -86,7 +86,7 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     stays = unmoved(bm, pool, merged, dissolved)
     new_evidence: set[str] = set()  # the lines that stay whose evidence changed
     for k, lid in stays.items():
-        fit = np.array(g.edges[dissolved.pop(lid)]["fit"], dtype=float)
+        fit = np.array(g.edge(*dissolved.pop(lid))["fit"], dtype=float)
         if _refit_in_place(bm, lid, pool[merged.groups[k]], fit, (merged, k), evidence, config):
             new_evidence.add(lid)
     refitted, fits, near = refits(bm, pool, merged, dissolved, config)
@@ -99,7 +99,7 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
             bm.set_attrs(node, xy=xy)
     fresh = [k for k in range(len(merged.groups)) if k not in refitted and k not in stays]
     affected = _affected_points(bm, dissolved, merged, fresh, config)
-    histories = {lid: (g.edges[ends]["history"], bm.running_mass(lid)) for lid, ends in dissolved.items()}
+    histories = {lid: (g.edge(*ends)["history"], bm.running_mass(lid)) for lid, ends in dissolved.items()}
     kept, removed = _detach(bm, dissolved, affected)
     lines = kept + _new_lines(bm, pool, merged, fresh, evidence, histories, config)
     store.write(touched[store.eliminated[touched]], line="")
@@ -121,7 +121,7 @@ def _merged_pool(
     lines = set(store.line[touched].tolist()) - {""}
     while True:
         dissolved = {lid: bm.ends(lid) for lid in sorted(lines)}
-        members = [np.asarray(g.edges[ends]["members"], dtype=np.intp) for ends in dissolved.values()]
+        members = [np.asarray(g.edge(*ends)["members"], dtype=np.intp) for ends in dissolved.values()]
         pool = np.union1d(touched, np.concatenate([np.zeros(0, dtype=np.intp), *members]))
         pool = pool[~store.eliminated[pool]]
         merged = merge_segments(store.p[pool], store.q[pool], config.merge, store.seen[pool])
@@ -139,7 +139,7 @@ def _candidate_lines(bm: BeliefMap, merged: Merged, dissolved: set[str], config:
     if not near:
         return set()
     ids = sorted(near)
-    fits = np.array([bm.graph.edges[bm.ends(lid)]["fit"] for lid in ids], dtype=float).reshape(-1, 2, 2)
+    fits = np.array([bm.graph.edge(*bm.ends(lid))["fit"] for lid in ids], dtype=float).reshape(-1, 2, 2)
     _, b, _ = related_pairs(merged.p, merged.q, config.merge, (fits[:, 0], fits[:, 1]), mergeable=True)
     return {ids[i] for i in b.tolist()}
 
@@ -180,7 +180,7 @@ def _affected_points(
     those where one would link with an end found anew at an affected point: a corner that a whole rebuild
     would make of them is found anew with them."""
     affected = {n for ends in dissolved.values() for n in ends}
-    old = np.array([bm.graph.edges[ends]["fit"] for ends in dissolved.values()], dtype=float).reshape(-1, 2, 2)
+    old = np.array([bm.graph.edge(*ends)["fit"] for ends in dissolved.values()], dtype=float).reshape(-1, 2, 2)
     p, q = np.concatenate([merged.p[fresh], old[:, 0]]), np.concatenate([merged.q[fresh], old[:, 1]])
     ends, u = np.concatenate([p, q]), np.concatenate([q - p] * 2)
     found = np.stack([ends, u / np.hypot(*u.T)[:, None]], axis=1)
@@ -234,7 +234,7 @@ def _refit_in_place(
 ) -> bool:
     """The line ``lid`` takes the merged line's members, support, noise-elimination evidence and ``fit``
     (its end points are moved by the caller); its sonar records stay. Whether that changed it."""
-    data = bm.graph.edges[bm.ends(lid)]
+    data = bm.graph.edge(*bm.ends(lid))
     history = data["history"]
     first, first_mass, members = _merged_line(bm, lid, members, *line, evidence)
     mass = with_running(first_mass, bm.running_mass(lid), config.rule)
@@ -271,7 +271,7 @@ def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[
     kept = []
     for lid in sorted({d["id"] for n in affected for d in g.adj[n].values()} - set(dissolved)):
         u, v = bm.ends(lid)
-        d = g.edges[u, v]
+        d = g.edge(u, v)
         fixed = (None if u in affected else u, None if v in affected else v)
         kept.append(_Line(np.array(d["fit"], dtype=float), fixed, dict(d), bm.running_mass(lid)))
     for lid in [line.data["id"] for line in kept] + list(dissolved):

@@ -56,7 +56,7 @@ def unmoved(
         lid = line[group[0]]
         if lid not in dissolved or any(line[i] != lid for i in group.tolist()):
             continue
-        data = g.edges[dissolved[lid]]
+        data = g.edge(*dissolved[lid])
         fit, members = data["fit"], data["members"]
         same_rows = len(members) == len(group) and set(members) == {rows[i] for i in group.tolist()}
         if same_rows and [p, q] in (fit, fit[::-1]):
@@ -93,7 +93,7 @@ def refits(
         if len(owners) != 1 or not owners <= dissolved.keys():
             continue
         (lid,) = owners
-        data = g.edges[dissolved[lid]]
+        data = g.edge(*dissolved[lid])
         if not set(data["members"]) <= set(pool[group].tolist()):
             continue
         a, b = data["fit"]  # plain floats: a handful of numbers per line
@@ -108,7 +108,7 @@ def refits(
     ends = np.concatenate(list(fits.values()))
     points = surface_points_near(bm, ends, 3 * config.corners.distance + move)
     neighbours = [(d["id"], n) for n in points for d in g.adj[n].values()]
-    stored = np.array([g.edges[bm.ends(m)]["fit"] for m, _ in neighbours], dtype=float).reshape(-1, 2, 2)
+    stored = np.array([g.edge(*bm.ends(m))["fit"] for m, _ in neighbours], dtype=float).reshape(-1, 2, 2)
     end = np.array([bm.ends(m).index(n) for m, n in neighbours], dtype=np.intp)
     rows: dict[str, list[int]] = {}
     for i, (m, _) in enumerate(neighbours):

@@ -66,5 +66,5 @@ def supported(bm: BeliefMap, target: str) -> list[str]:
     if bm.is_line(target):
         return [target]
     kind = bm.graph.nodes[target]["kind"]
-    lines = [d["id"] for _, _, d in bm.graph.edges(target, data=True)]
+    lines = [d["id"] for d in bm.graph.adj[target].values()]
     return [target, *lines] if kind == "corner" else lines

@@ -74,7 +74,7 @@ def map_surfaces(bm: BeliefMap, bounds: tuple[float, float, float, float] | None
     (xmin, ymin, xmax, ymax), only the lines near that box.
     """
     g = bm.graph
-    lines = sorted(bm.near(bounds, "lines")) if bounds is not None else [d["id"] for _, _, d in g.edges(data=True)]
+    lines = sorted(bm.near(bounds, "lines")) if bounds is not None else [d["id"] for _, _, d in g.edges()]
     line_ends = [bm.ends(lid) for lid in lines]
     ids = sorted({n for ends in line_ends for n in ends})
     index = {n: i for i, n in enumerate(ids)}

@@ -5,13 +5,13 @@ point"``, ``"removed line"`` (with its ends and data), ``"removed point"`` (with
 its data), ``"set"`` (with the attributes' values before, :data:`ABSENT` where
 there was none) and ``"folded"`` (with the mass before and the history's length).
 
->>> import networkx as nx
->>> g = nx.Graph(); g.add_node("A", kind="corner"); lines = {}
+>>> from evmap.maps.map_graph import MapGraph
+>>> g = MapGraph(); g.add_node("A", kind="corner"); lines = {}
 >>> log = UndoLog(); log.start()
 >>> log.record("set", "A", {"kind": "corner", "shape": ABSENT}); g.nodes["A"].update(kind="endpoint", shape="x")
 >>> g.add_node("B"); log.record("added point", "B")
 >>> undo(log.stop(), g, lines, lambda id: g.nodes[id])
->>> list(g.nodes(data=True))
+>>> list(g.nodes.items())
 [('A', {'kind': 'corner'})]
 """
 
@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections.abc import Callable, MutableMapping
 from typing import Any
 
-import networkx as nx
+from evmap.maps.map_graph import MapGraph
 
 __all__ = ["ABSENT", "UndoLog", "undo"]
 
@@ -56,7 +56,7 @@ class UndoLog:
 
 def undo(
     changes: list[tuple[Any, ...]],
-    graph: nx.Graph,
+    graph: MapGraph,
     lines: MutableMapping[str, tuple[str, str]],
     data_of: Callable[[str], dict[str, Any]],
 ) -> None:

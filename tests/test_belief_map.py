@@ -7,6 +7,7 @@ import shapely
 
 from evidential import Frame, MassFunction, TotalConflictError, combine, conflict
 from evmap.maps import BeliefMap, Line, Point
+from evmap.maps.map_graph import MapGraph
 from evmap.maps.planner import belief_plausibility
 
 FRAME = Frame(["real", "noise"])
@@ -28,16 +29,26 @@ def bm() -> BeliefMap:
 
 def test_points_and_lines_are_nodes_and_edges_with_their_attributes(bm):
     g = bm.graph
-    assert isinstance(g, nx.Graph) and set(g.nodes) == {"C1", "E1", "U1"}
+    assert isinstance(g, MapGraph) and set(g.nodes) == {"C1", "E1", "U1"}
     corner = dict(g.nodes["C1"])
     assert corner.pop("mass").to_dict() == {"real": 0.7, "real|noise": 0.30000000000000004}
     assert corner == {"id": "C1", "xy": (0.0, 0.0), "kind": "corner", "history": [], "shape": "concave"}
     assert type(g.nodes["C1"]["xy"][0]) is float
-    edge = g.edges["C1", "E1"]
+    edge = g.edge("C1", "E1")
     assert edge["id"] == "L1" and edge["kind"] == "line" and edge["members"] == [1, 2] and edge["reinforced"] is True
     assert edge["mass"].to_dict() == mass(0.8, 0.1).to_dict()
     assert g.nodes["U1"]["history"] == [{"pose": 0, "sensor": "sonar"}]
     assert g.graph["schema_version"] == 2 and g.graph["frame"] == ["real", "noise"] and g.graph["rule"] == "dempster"
+
+
+def test_networkx_sees_the_map_as_the_map_holds_it(bm):
+    copy = bm.graph.to_networkx()
+    assert isinstance(copy, nx.Graph) and copy.graph == bm.graph.graph
+    assert list(copy.nodes(data=True)) == list(bm.graph.nodes.items())
+    assert list(copy.edges(data=True)) == list(bm.graph.edges())
+    assert nx.shortest_path(copy, "C1", "E1") == ["C1", "E1"] and nx.number_connected_components(copy) == 2
+    bm.remove_line("L1")
+    assert copy.has_edge("C1", "E1") and not bm.graph.has_edge("C1", "E1")  # a copy: the map's later changes not in it
 
 
 def test_lookup_by_id_gives_line_and_point_views(bm):
@@ -141,7 +152,7 @@ def test_fold_in_total_conflict_changes_nothing():
 def test_fold_refuses_a_record_json_cannot_carry(bm):
     with pytest.raises(ValueError, match="pose"):
         bm.fold("L1", mass(0.5), {"pose": np.int64(3)})
-    assert bm.graph.edges["C1", "E1"]["history"] == []
+    assert bm.graph.edge("C1", "E1")["history"] == []
 
 
 def test_set_attrs_changes_mass_position_kind_and_extras(bm):
@@ -155,11 +166,11 @@ def test_set_attrs_changes_mass_position_kind_and_extras(bm):
 def test_a_history_grown_by_a_bad_record_is_refused_naming_it(bm):
     """Records the map holds are not checked again; a new one that JSON cannot carry is named by its place."""
     bm.set_attrs("L1", history=[{"pose": 0}, {"pose": 1}])
-    kept = bm.graph.edges[bm.ends("L1")]["history"]
+    kept = bm.graph.edge(*bm.ends("L1"))["history"]
     with pytest.raises(ValueError, match=r"history: \[2\]\.pose: nan is not finite"):
         bm.set_attrs("L1", history=[*kept, {"pose": float("nan")}])
     bm.set_attrs("L1", history=[*kept, {"pose": 2}])
-    assert [r["pose"] for r in bm.graph.edges[bm.ends("L1")]["history"]] == [0, 1, 2]
+    assert [r["pose"] for r in bm.graph.edge(*bm.ends("L1"))["history"]] == [0, 1, 2]
 
 
 def test_open_space_is_a_multipolygon_stored_as_coordinates(bm):
@@ -202,7 +213,7 @@ def test_open_space_near_a_place_seen_many_times_is_read_from_tiles_and_is_the_s
     rng = np.random.default_rng(3)
     corners = rng.uniform(0, 9, (3 * MANY, 2))
     pieces = [shapely.box(x, y, x + 2.5, y + 1.5) for x, y in corners.tolist()]
-    space = OpenSpacePieces(nx.Graph())
+    space = OpenSpacePieces(MapGraph())
     box = (2.0, 2.0, 7.0, 6.0)
 
     def same_as_union(count):

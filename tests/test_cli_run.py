@@ -144,6 +144,17 @@ def test_the_command_line_starts_without_the_heavy_libraries():
     assert version.returncode == 0 and version.stdout.startswith("evmap ")
 
 
+def test_a_run_without_figures_imports_neither_networkx_nor_matplotlib(tmp_path):
+    """networkx is a tenth of a second of a small run's half second (``benchmarks/bench_cli.py``)."""
+    code = (
+        "import sys; from evmap.maps.app.cli import main;"
+        f"main(['run', '--out', {str(tmp_path / 'out')!r}, '--figures', 'none']);"
+        "print(sorted(m for m in ('networkx', 'matplotlib', 'dask') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]" and (tmp_path / "out" / "map.json").exists()
+
+
 def test_the_collector_gets_back_what_a_command_froze_unless_it_is_the_process(capsys, tmp_path):
     """As the process's command, the modules a run imported stay frozen out of the garbage collector's passes;
     called from Python, the collector has them back afterwards."""

@@ -155,10 +155,10 @@ def test_merged_map_figure_draws_every_line_and_corner(run: Run) -> None:
     fig = figures.merged_map_figure(run)
     assert n_segments(fig, "map-lines") == g.number_of_edges()
     assert n_segments(fig, "segments") == int((~run.map.segments.eliminated).sum())
-    shapes = [d.get("shape") for _, d in g.nodes(data=True) if d["kind"] == "corner"]
+    shapes = [d.get("shape") for _, d in g.nodes.items() if d["kind"] == "corner"]
     drawn = {k: len(collection(fig, f"points-{k}").get_xdata()) for k in ("concave", "convex")}
     assert drawn == {"concave": shapes.count("concave"), "convex": shapes.count("convex")}
-    ends = sum(d["kind"] == "endpoint" for _, d in g.nodes(data=True))
+    ends = sum(d["kind"] == "endpoint" for _, d in g.nodes.items())
     assert len(collection(fig, "points-endpoint").get_xdata()) == ends
 
 

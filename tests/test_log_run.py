@@ -45,7 +45,7 @@ def test_an_observation_without_sonar_skips_the_sonar_stages(config):
     outcome = bm.update(obs)
     assert outcome.predicted_scan is None and len(outcome.actual) == 0 and outcome.open_space.is_empty
     assert bm.open_space.is_empty and bm.graph.number_of_edges() > 0
-    assert not bm.unidentified() and not any(d.get("reinforced") for _, _, d in bm.graph.edges(data=True))
+    assert not bm.unidentified() and not any(d.get("reinforced") for _, _, d in bm.graph.edges())
 
 
 def test_an_observation_needs_a_pose_and_a_sonar_pose_must_agree(config):
@@ -71,19 +71,19 @@ def test_a_log_run_reports_its_scans_line_fit_and_no_sonar(intel):
 
 def test_lines_seen_from_many_poses_are_one_line_per_wall(intel, config):
     g = intel.map.graph
-    fits = np.array([d["fit"] for _, _, d in g.edges(data=True)])
+    fits = np.array([d["fit"] for _, _, d in g.edges()])
     a, _, _ = related_pairs(fits[:, 0], fits[:, 1], config.merge)
     assert len(a) == 0
     store = intel.map.segments
     support = np.flatnonzero(store.role == "support")
     assert len(support) > 0 and (store.seen[support] > 3).all()
-    members = [m for _, _, d in g.edges(data=True) for m in d["members"]]
+    members = [m for _, _, d in g.edges() for m in d["members"]]
     assert not (store.role[members] == "absorbed").any()  # a line's members are its live rows
 
 
 def test_patrol_lines_are_one_line_per_wall(config):
     run = run_scenario(load_scenario(configs.path("scenarios/patrol.yaml")), config)
-    fits = np.array([d["fit"] for _, _, d in run.map.graph.edges(data=True)])
+    fits = np.array([d["fit"] for _, _, d in run.map.graph.edges()])
     a, _, _ = related_pairs(fits[:, 0], fits[:, 1], config.merge)
     assert len(a) == 0
 
@@ -92,7 +92,7 @@ def test_a_log_s_map_loads_as_it_was_saved(intel, tmp_path):
     """Rows absorbed into a line's support keep the name of that line after a later scan replaced it."""
     store = intel.map.segments
     absorbed = store.role == "absorbed"
-    lines = {d["id"] for _, _, d in intel.map.graph.edges(data=True)}
+    lines = {d["id"] for _, _, d in intel.map.graph.edges()}
     assert any(line not in lines for line in store.line[absorbed].tolist())  # what the file must allow
     intel.map.save(tmp_path / "map.json")
     assert BeliefMap.load(tmp_path / "map.json").to_data() == intel.map.to_data()

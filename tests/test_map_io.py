@@ -57,7 +57,7 @@ def test_round_trip_is_lossless(bm, tmp_path):
     loaded = BeliefMap.load(path)
     assert bits(loaded.to_data()) == bits(bm.to_data())
     assert loaded.graph.graph == bm.graph.graph and list(loaded.graph.nodes) == ["E2", "C1", "U1"]
-    for n, data in bm.graph.nodes(data=True):
+    for n, data in bm.graph.nodes.items():
         other = loaded.graph.nodes[n]
         assert {k: v for k, v in other.items() if k != "mass"} == {k: v for k, v in data.items() if k != "mass"}
         assert other["mass"].masks.tolist() == data["mass"].masks.tolist()
@@ -65,8 +65,8 @@ def test_round_trip_is_lossless(bm, tmp_path):
         assert type(other["xy"]) is tuple
     line, before = loaded["L1"], bm["L1"]
     assert (line.u, line.v, line.p, line.q, line.belief) == (before.u, before.v, before.p, before.q, before.belief)
-    assert loaded.graph.edges["C1", "E2"]["history"] == bm.graph.edges["C1", "E2"]["history"]
-    assert len(loaded.graph.edges["C1", "E2"]["history"]) == 2
+    assert loaded.graph.edge("C1", "E2")["history"] == bm.graph.edge("C1", "E2")["history"]
+    assert len(loaded.graph.edge("C1", "E2")["history"]) == 2
     assert loaded.open_space.equals_exact(bm.open_space, tolerance=0)
     assert loaded.nearest_obstacle((2, 2), 0.0) == bm.nearest_obstacle((2, 2), 0.0)
     loaded.save(tmp_path / "again.json")

@@ -54,9 +54,9 @@ def assert_lines_of_the_whole_merge(run):
     keep = np.flatnonzero(~store.eliminated & (store.role != "absorbed"))
     merged = merge_segments(store.p[keep], store.q[keep], config.merge, store.seen[keep])
     whole = sorted(tuple(keep[g].tolist()) for g in merged.groups)
-    local = sorted(tuple(sorted(d["members"])) for _, _, d in run.map.graph.edges(data=True))
+    local = sorted(tuple(sorted(d["members"])) for _, _, d in run.map.graph.edges())
     assert local == whole
-    for _, _, d in run.map.graph.edges(data=True):
+    for _, _, d in run.map.graph.edges():
         assert (store.line[d["members"]] == d["id"]).all()
     assert (store.line[store.eliminated] == "").all()
 
@@ -79,9 +79,9 @@ def assert_corners_of_every_line(run):
     keeps a free end there (two short lines whose both ends meet; the logs' excerpts had one until corners kept
     their lines drawn apart, ``corners.drawn_apart``)."""
     g = run.map.graph
-    fits = np.array([d["fit"] for _, _, d in g.edges(data=True)])
+    fits = np.array([d["fit"] for _, _, d in g.edges()])
     whole = find_corners(fits[:, 0], fits[:, 1], run.config.corners)
-    local = np.array([d["xy"] for _, d in g.nodes(data=True) if d["kind"] == "corner"]).reshape(-1, 2)
+    local = np.array([d["xy"] for _, d in g.nodes.items() if d["kind"] == "corner"]).reshape(-1, 2)
     lines = [set(ends[:, 0].tolist()) for ends in whole.ends]
     close = np.hypot(*(local[:, None] - whole.xy[None]).transpose(2, 0, 1)) <= 1e-12  # (map, whole)
     held = close.any(axis=0).tolist()
@@ -94,7 +94,7 @@ def assert_corners_of_every_line(run):
 def test_points_end_the_right_number_of_lines(kind):
     run = run_log(LOG, load_config("default")) if kind == "log" else patrol_run()
     g = run.map.graph
-    for n, d in g.nodes(data=True):  # an end point ends one line, a corner two or more
+    for n, d in g.nodes.items():  # an end point ends one line, a corner two or more
         if d["kind"] == "endpoint":
             assert g.degree(n) == 1
         elif d["kind"] == "corner":
@@ -137,10 +137,10 @@ def test_lines_a_scan_comes_near_but_leaves_as_they_are_stay_as_they_are():
     none of them: same ids, same points, the corner the whole map's."""
     bm = new_map(load_config("default"))
     bm.update(laser_only(0, [[0, 0], [0, 0], [0.02, 0.02]], [[2, 0], [0, 2], [0.035, 0.035]]))
-    before = sorted((d["id"], u, v, d["fit"]) for u, v, d in bm.graph.edges(data=True))
+    before = sorted((d["id"], u, v, d["fit"]) for u, v, d in bm.graph.edges())
     assert [(lid, u, v) for lid, u, v, _ in before] == [("L1", "C1", "E1"), ("L2", "C1", "E2"), ("L3", "C1", "E3")]
     bm.update(laser_only(1, [[0.5, 0.08]], [[1.5, 0.08]]))
-    after = sorted((d["id"], u, v, d["fit"]) for u, v, d in bm.graph.edges(data=True))
+    after = sorted((d["id"], u, v, d["fit"]) for u, v, d in bm.graph.edges())
     assert after[:3] == before and [lid for lid, *_ in after[3:]] == ["L4"]
     fits = np.array([fit for *_, fit in after])
     assert find_corners(fits[:, 0], fits[:, 1], bm.config.corners).xy.tolist() == [list(bm.graph.nodes["C1"]["xy"])]
@@ -176,9 +176,9 @@ def test_a_line_that_grows_toward_a_line_no_update_touched_joins_it():
     them, as a merge of the whole map would."""
     bm = new_map(load_config("default"))
     bm.update(laser_only(0, [[0, 0], [1.03, 0.06]], [[1, 0], [2, 0.07]]))
-    assert sorted(d["members"] for _, _, d in bm.graph.edges(data=True)) == [[0], [1]]
+    assert sorted(d["members"] for _, _, d in bm.graph.edges()) == [[0], [1]]
     bm.update(laser_only(1, [[-1, -0.045]], [[-0.02, -0.005]]))
     store = bm.segments
     whole = merge_segments(store.p, store.q, bm.config.merge)
     assert [g.tolist() for g in whole.groups] == [[0, 1, 2]]
-    assert [d["members"] for _, _, d in bm.graph.edges(data=True)] == [[0, 1, 2]]
+    assert [d["members"] for _, _, d in bm.graph.edges()] == [[0, 1, 2]]

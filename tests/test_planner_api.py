@@ -62,7 +62,7 @@ def test_lines_above_a_belief_carry_their_ends_mass_belief_and_plausibility(bm):
 def test_corners_unidentified_and_landmarks(bm):
     corners = bm.corners(0.3)
     assert corners and all(c.kind == "corner" and c.belief >= 0.3 for c in corners)
-    assert {c.id for c in corners} == {n for n, d in bm.graph.nodes(data=True)
+    assert {c.id for c in corners} == {n for n, d in bm.graph.nodes.items()
                                        if d["kind"] == "corner" and d["mass"].belief("real") >= 0.3}  # fmt: skip
     assert [u.id for u in bm.unidentified()] == [f"U{i}" for i in range(15)]
     assert all(u.belief >= 0.5 for u in bm.unidentified(0.5))
@@ -134,11 +134,11 @@ def brute_force(bm: BeliefMap, min_belief: float) -> tuple[list[str], np.ndarray
     """Ids and geometries of the obstacles read straight from the graph (no cache, no index of the map)."""
     g = bm.graph
     ids, geoms = [], []
-    for u, v, d in g.edges(data=True):
+    for u, v, d in g.edges():
         if d["mass"].belief("real") >= min_belief:
             ids.append(d["id"])
             geoms.append(shapely.LineString([g.nodes[u]["xy"], g.nodes[v]["xy"]]))
-    for n, d in g.nodes(data=True):
+    for n, d in g.nodes.items():
         if d["kind"] == "unidentified" and d["mass"].belief("real") >= min_belief:
             ids.append(n)
             geoms.append(shapely.Point(d["xy"]))
@@ -178,7 +178,7 @@ def test_queries_right_after_changes_agree_with_brute_force(seed, changes, min_b
     bm.nearest_obstacle((0, 0))  # grids and belief cache made: from now on kept up to date
     bm.lines(0.0)  # the whole-map index made, to be dropped by the changes
     for n, (what, pick, a, b, real) in enumerate(changes):
-        lines, points = sorted(bm.graph.edges), sorted(bm.graph.nodes)
+        lines, points = sorted((u, v) for u, v, _ in bm.graph.edges()), sorted(bm.graph.nodes)
         if what == "line":
             bm.add_point(f"P{n}", a, "corner", mass(real))
             bm.add_point(f"Q{n}", b, "endpoint", mass(real))
@@ -187,11 +187,11 @@ def test_queries_right_after_changes_agree_with_brute_force(seed, changes, min_b
         elif what == "target":
             bm.add_point(f"T{n}", a, "unidentified", mass(real))
         elif what == "remove" and lines:
-            bm.remove_line(bm.graph.edges[lines[pick % len(lines)]]["id"])
+            bm.remove_line(bm.graph.edge(*lines[pick % len(lines)])["id"])
         elif what == "drop" and (loose := [n for n in points if not bm.graph.degree(n)]):
             bm.remove_point(loose[pick % len(loose)])
         elif what == "fold":
-            ids = [bm.graph.edges[e]["id"] for e in lines] + points
+            ids = [bm.graph.edge(*e)["id"] for e in lines] + points
             bm.fold(ids[pick % len(ids)], mass(real), {"pose": n})
         elif what == "move":
             bm.set_attrs(points[pick % len(points)], xy=a)

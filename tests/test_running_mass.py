@@ -36,7 +36,7 @@ def test_the_kept_running_mass_is_the_one_made_from_the_history(patrol):
         evidence = (
             [r for r in bm.graph.nodes[i]["history"] if r.get("stage") != NOISE_STAGE]
             if i in bm.graph
-            else [r for r in bm.graph.edges[bm.ends(i)]["history"] if r.get("stage") != NOISE_STAGE]
+            else [r for r in bm.graph.edge(*bm.ends(i))["history"] if r.get("stage") != NOISE_STAGE]
         )
         made = running_of(bm.frame, evidence, bm.rule)
         if made is None:
@@ -47,10 +47,10 @@ def test_the_kept_running_mass_is_the_one_made_from_the_history(patrol):
 
 def test_under_an_associative_rule_a_line_s_mass_is_its_history_folded(patrol):
     bm = patrol.map
-    lines = [i for i in bm.line_ids() if len(bm.graph.edges[bm.ends(i)]["history"]) > 1]
+    lines = [i for i in bm.line_ids() if len(bm.graph.edge(*bm.ends(i))["history"]) > 1]
     assert lines
     gaps = [
-        np.abs(bm.mass(i).dense() - full_fold(bm, bm.graph.edges[bm.ends(i)]["history"]).dense()).max() for i in lines
+        np.abs(bm.mass(i).dense() - full_fold(bm, bm.graph.edge(*bm.ends(i))["history"]).dense()).max() for i in lines
     ]
     if bm.rule == "dempster":
         assert max(gaps) < 1e-12

@@ -113,14 +113,14 @@ def _lines_along(run: Run, p: np.ndarray, q: np.ndarray) -> list:
 def _base_mass(run: Run, line_id: str) -> MassFunction:
     """A line's mass from the noise-elimination stage alone (the first record of its history)."""
     line = run.map[line_id]
-    first = run.map.graph.edges[line.u, line.v]["history"][0]
+    first = run.map.graph.edge(line.u, line.v)["history"][0]
     assert first["stage"] == "noise_elimination"
     return MassFunction.from_dict(run.map.frame, first["mass"], open_world=True)
 
 
 def _sonar_records(run: Run, line_id: str) -> list[dict]:
     line = run.map[line_id]
-    return [r for r in run.map.graph.edges[line.u, line.v]["history"] if r.get("stage") == "reinforcement"]
+    return [r for r in run.map.graph.edge(line.u, line.v)["history"] if r.get("stage") == "reinforcement"]
 
 
 # --------------------------------------------------------------------- every scenario

@@ -196,7 +196,7 @@ def segment_records(run: Run) -> list[dict[str, Any]]:
 def _map_counts(run: Run) -> dict[str, int]:
     """The final map's lines, corners and unidentified objects, and the RCDs of its updates (both reports)."""
     g = run.map.graph
-    kinds = [kind for _, kind in g.nodes(data="kind")]
+    kinds = [d.get("kind") for d in g.nodes.values()]
     return {
         "lines_after_merge": g.number_of_edges(),
         "corners": kinds.count("corner"),

@@ -48,7 +48,7 @@ def view(run: Run) -> NDArray[np.float64]:
         poses(run)[:, :2],
         store.p,
         store.q,
-        np.array([d["xy"] for _, d in run.map.graph.nodes(data=True)], dtype=float).reshape(-1, 2),
+        np.array([d["xy"] for d in run.map.graph.nodes.values()], dtype=float).reshape(-1, 2),
     ]
     simulated = world(run)
     if simulated is not None:

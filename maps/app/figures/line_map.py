@@ -34,9 +34,8 @@ def merged_map_figure(run: Run) -> Figure:
     draw.segments(ax, store.p[kept], store.q[kept], color=ORANGE, lw=4.0, alpha=0.45, gid="segments")
     lines = bm.lines(0.0)
     draw.segments(ax, draw.ends(lines, "p"), draw.ends(lines, "q"), color=BLACK, lw=1.3, gid="map-lines")
-    nodes = bm.graph.nodes
     by_kind: dict[str, list[tuple[float, float]]] = {"concave": [], "convex": [], "unknown": [], "endpoint": []}
-    for _, d in nodes(data=True):
+    for d in bm.graph.nodes.values():
         if d["kind"] == "endpoint":
             by_kind["endpoint"].append(d["xy"])
         elif d["kind"] == "corner":
