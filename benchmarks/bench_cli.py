@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 
 EVMAP = str(Path(sys.executable).with_name("evmap"))
-LIBRARIES = "numpy, networkx, shapely, pydantic, yaml"
+LIBRARIES = "numpy, shapely, pydantic, yaml"
 """What every run imports besides evmap: the floor of its wall time that evmap's own code does not set."""
 
 
