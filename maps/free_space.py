@@ -50,7 +50,7 @@ from numpy.typing import NDArray
 from evmap.maps.planner import lines
 from evmap.maps.sensed import Sensed, sensed
 from evmap.sources.geometry import point_segment_distances
-from evmap.sources.open_space import open_space
+from evmap.sources.open_space import open_space, unite
 from evmap.sources.rcd import extract_rcds
 
 if TYPE_CHECKING:
@@ -309,7 +309,7 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
             sonar = open_space(s.sonar, extract_rcds(s.sonar, config.rcd, primitive=True), config.open_space)
             bound = contour_bound(surfaces, params, s.sonar.params.max_range + 1.0)
             seen.append(sonar if bound is None else shapely.intersection(sonar, bound))
-        free = shapely.union_all(seen)
+        free = unite(seen)
         if len(p) and not free.is_empty:
             # the pose's free space is star-shaped from its origin (fans of rays and sonar sectors from there):
             # the segment from the origin to a free point in a line's shadow is free and crosses the line, so
@@ -320,9 +320,9 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
             free = shapely.difference(free, shadows(s.origin, p[near], q[near], reach))
         pieces.append(shapely.difference(free, ray_ends(surfaces, params)))
     # snapped to the micrometre: the unions of touching sectors leave cracks of no width that a path crosses
-    union = shapely.set_precision(shapely.union_all(pieces), PRECISION)
+    union = shapely.set_precision(unite(pieces), PRECISION)
     polygons = [g for g in shapely.get_parts(union) if isinstance(g, shapely.Polygon) and not g.is_empty]
-    made = shapely.union_all(polygons) if polygons else shapely.Polygon()
+    made = unite(polygons) if polygons else shapely.Polygon()
     shapely.prepare(made)
     return made
 

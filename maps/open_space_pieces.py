@@ -31,6 +31,7 @@ import shapely
 from evmap.maps import map_json
 from evmap.maps.map_graph import MapGraph
 from evmap.maps.spatial import Bounds, SpatialIndex
+from evmap.sources.open_space import unite
 
 __all__ = ["MANY", "TILE", "OpenSpacePieces"]
 
@@ -60,7 +61,7 @@ class OpenSpacePieces:
     def union(self) -> shapely.MultiPolygon:
         """The union of the pieces, a (possibly empty) MultiPolygon; made once after each change."""
         if self._union is None:
-            union = shapely.union_all(self._pieces)
+            union = unite(self._pieces)
             self._union = union if isinstance(union, shapely.MultiPolygon) else map_json.as_multipolygon(union)
             self.graph.graph["open_space"] = map_json.geojson(self._union)
         return self._union
@@ -94,7 +95,7 @@ class OpenSpacePieces:
     def near(self, bounds: Bounds) -> shapely.Geometry:
         """The open space within the box ``bounds``, and maybe some beyond it; costs what the box holds."""
         parts = self.parts_near(bounds)
-        return shapely.union_all(parts) if parts else shapely.MultiPolygon()
+        return unite(parts) if parts else shapely.MultiPolygon()
 
     def parts_near(self, bounds: Bounds) -> list[shapely.Geometry]:
         """Polygons, maybe overlapping, whose union is :meth:`near` (what measures the open space along lines
@@ -112,7 +113,7 @@ class OpenSpacePieces:
         if tile not in self._tiles:
             box = _box(tile)
             parts = [shapely.intersection(self._pieces[int(k)], box) for k in index.query(box.bounds)]
-            self._tiles[tile] = shapely.union_all(parts) if parts else shapely.MultiPolygon()
+            self._tiles[tile] = unite(parts) if parts else shapely.MultiPolygon()
         return self._tiles[tile]
 
     def truncate(self, count: int, union: shapely.MultiPolygon | None) -> None:

@@ -17,6 +17,8 @@ several poses is ``shapely.union_all`` of their open spaces.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import shapely
 
@@ -24,7 +26,23 @@ from evmap.sources.params import OpenSpaceParams
 from evmap.sources.rcd import TYPE_I, TYPE_IV, Rcds
 from evmap.sources.readings import SonarScan
 
-__all__ = ["open_space"]
+__all__ = ["GRID", "open_space", "unite"]
+
+GRID = 1e-6
+"""The grid (m) of :func:`unite`'s snap-rounding."""
+
+
+def unite(geometries: Sequence[shapely.Geometry]) -> shapely.Geometry:
+    """The union of polygons (``shapely.union_all``); where GEOS's floating overlay cannot node edges that nearly
+    touch ("found non-noded intersection"), the union by its snap-rounding on the grid :data:`GRID`, which can.
+
+    >>> unite([shapely.box(0, 0, 1, 1), shapely.box(1, 0, 2, 1)]).area
+    2.0
+    """
+    try:
+        return shapely.union_all(geometries)
+    except shapely.errors.GEOSException:
+        return shapely.union_all(geometries, grid_size=GRID)
 
 
 def _sector(center: np.ndarray, radius: float, a0: float, a1: float, arc_step: float) -> shapely.Polygon:
@@ -77,4 +95,4 @@ def open_space(scan: SonarScan, rcds: Rcds, params: OpenSpaceParams) -> shapely.
         pieces.append(_sector(center, params.footprint_radius, 0.0, 2 * np.pi, arc_step))
     if not pieces:
         return shapely.Polygon()
-    return shapely.union_all(pieces)
+    return unite(pieces)

@@ -107,3 +107,17 @@ def test_only_the_lines_that_meet_a_pose_s_free_space_shade_it(bm, kind, monkeyp
     monkeypatch.setattr(shapely, "STRtree", _EveryLine)  # every believed line's shadow cut from every pose
     whole = free_space(BeliefMap.load(tmp_path / "map.json"))  # made afresh: a new map object
     assert whole.area > 1 and shapely.symmetric_difference(culled, whole).area <= 1e-6  # snapped to the micrometre
+
+
+def test_free_space_of_sectors_whose_edges_nearly_touch():
+    """Generated world 119 of seed 1 under Yager's rule: GEOS's floating overlay could not node the union of its
+    poses' free space ("found non-noded intersection"), which stopped ``evmap compare --worlds 200 --seed 1``."""
+    from evmap.maps.app.compare_configs import resolve_config
+    from evmap.maps.app.compare_metrics import fuse_configs
+    from evmap.sources.sim.worldgen import generate_world, world_seed
+
+    scenario = generate_world(world_seed(1, 119), name="world-0119")
+    bm = fuse_configs(scenario, {"default": resolve_config("default")}, ["yager"])["default", "yager"].map
+    free = free_space(bm)
+    assert free.is_valid and free.area > 50
+    assert np.allclose(shapely.get_coordinates(free) / 1e-6, np.round(shapely.get_coordinates(free) / 1e-6))
