@@ -84,9 +84,7 @@ class MapGraph:
 
     def add_edge(self, u: str, v: str, **attrs: Any) -> None:
         for node in (u, v):
-            if node not in self.nodes:
-                self.adj[node] = {}
-                self.nodes[node] = {}
+            self.add_node(node)
         data = self.adj[u].get(v, {})
         data.update(attrs)
         self.adj[u][v] = self.adj[v][u] = data
