@@ -13,6 +13,7 @@ sonar, matching, reinforcement, unidentified objects).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -20,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from evmap.maps.noise import COMPUTED
-from evmap.sources.config_model import Config
+from evmap.sources.config_model import Config, SensorsParams
 from evmap.sources.readings import LslSegments, ScanError, SonarScan
 from evmap.sources.sensor_kinds import features_from_arrays
 from evmap.sources.sim.lsl import observe_stripe
@@ -28,7 +29,7 @@ from evmap.sources.sim.sensor_models import simulate_features
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World
 
-__all__ = ["SONAR_STREAM", "Observation", "observation_from_arrays", "observe"]
+__all__ = ["SONAR_STREAM", "Observation", "observation_from_arrays", "observe", "sensing_config"]
 
 SONAR_STREAM = 1
 """Stream number of the sonar range noise: ``default_rng([seed, pose_index, 1])``."""
@@ -110,6 +111,24 @@ def _checked_rays(rays: ArrayLike) -> NDArray[np.float64]:
             f"rays[{bad[0]}] = {given[bad[0]].tolist()}: a finite bearing and a range >= 0 m, or NaN for no return"
         )
     return given
+
+
+def sensing_config(world: World, config: Config) -> Config:
+    """The config with the scenario's sensors: the parameters the world's observations are sensed with.
+
+    A map of the world is made with it, so that its evidence reads the scans with the
+    sensors that made them (a stripe's range noise and range, a sonar's beam), not the
+    config's defaults; ``map.json`` keeps them.
+
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.sim.scenario import parse_scenario
+    >>> s = parse_scenario('''
+    ... {version: 1, name: t, world: {walls: []}, robot: {poses: [[0, 0, 0]]}, sensors: {lsl: {max_range: 5}}}''', "t")
+    >>> sensing_config(World(s), load_config()).sensors.lsl.max_range
+    5.0
+    """
+    sonar, lsl = world.scenario.sensor_params(config.sensors.sonar, config.sensors.lsl)
+    return dataclasses.replace(config, sensors=SensorsParams(sonar=sonar, lsl=lsl))
 
 
 def observe(world: World, pose_index: int, config: Config) -> Observation:

@@ -42,7 +42,7 @@ from evmap.maps.app.compare_hazards import (
 )
 from evmap.maps.app.metrics import share
 from evmap.maps.app.run import Run
-from evmap.maps.observation import observe
+from evmap.maps.observation import observe, sensing_config
 from evmap.maps.pipeline import fold_observation
 from evmap.sources.config_model import Config
 from evmap.sources.geometry import cast_rays, perpendicular_feet, point_segment_distances
@@ -180,7 +180,8 @@ def fuse_configs(scenario: Scenario, configs: Mapping[str, Config], rules: Seque
     world = World(scenario)
     sensed: dict[str, tuple[list[Any], float]] = {}
     runs = {}
-    for name, config in configs.items():
+    for name, given in configs.items():
+        config = sensing_config(world, given)
         key = sensing_key(config)
         if key not in sensed:
             start = time.perf_counter()

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from evmap.maps import new_map
 from evmap.maps.app.metrics import share
 from evmap.maps.belief_map import BeliefMap
-from evmap.maps.observation import Observation, observe
+from evmap.maps.observation import Observation, observe, sensing_config
 from evmap.maps.pipeline import PoseOutcome
 from evmap.maps.segments import SegmentStore
 from evmap.sources.config_model import Config
@@ -91,6 +91,7 @@ def run_scenario(scenario: Scenario, config: Config) -> Run:
     ('dempster', 1)
     """
     world = World(scenario)
+    config = sensing_config(world, config)
     start = time.perf_counter()
     observations = [observe(world, k, config) for k in range(len(world.poses))]
     sensed = time.perf_counter()
