@@ -20,8 +20,11 @@ beyond it on that bearing did not come from a direct echo (a double bounce, or
 sound through an opening the sonar cannot resolve). Where the stripe returned
 nothing between two points at most ``bridge`` apart (a window: glass lets the
 stripe through, and the sonar, at oblique incidence, hears a double bounce), the
-chord between the two points bounds it. Bearings the contour did not look at,
-and wider gaps, leave the sonar's free space as it is.
+chord between the two points bounds it. A ray that returned nothing bounds it at
+the contour sensor's range (``sensors.lsl.max_range``): the stripe tells that
+nothing opaque stands within it, and nothing tells beyond it, where a sector may
+cross a wall the sonar did not hear (a specular wall is silent off its normal).
+Bearings the contour did not look at leave the sonar's free space as it is.
 
 A sensor sees nothing behind a surface, so each pose's free space ends at the
 first believed line (``Bel(real) >= min_belief``) that it meets: the line's
@@ -187,13 +190,16 @@ def contour_bound(
     params: FreeSpaceParams,
     reach: float,
     bridge_ok: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.bool_]] | None = None,
+    unreturned: float | None = None,
 ) -> shapely.Geometry | None:
     """What the contour of one pose leaves possible to be free: the star polygon through its stripe points.
 
     Each returned ray bounds it at its point (less ``margin``); a run of rays that returned
     nothing, between two returned rays whose points ``a``, ``b`` are at most ``bridge`` apart
     (and pass ``bridge_ok(a, b)``, (K, 2) each, when given), at the chord between those points;
-    other rays, and bearings with no ray (more than ``max_gap`` from the nearest), at ``reach``.
+    other rays that returned nothing at ``unreturned`` (less ``margin``) when given, the range
+    within which they tell that nothing opaque stands; those rays when it is not given, and
+    bearings with no ray (more than ``max_gap`` from the nearest), at ``reach``.
     None when the pose has no returned ray.
 
     >>> bearing = np.radians(np.arange(-180.0, 180.0, 1.0))
@@ -208,13 +214,16 @@ def contour_bound(
     ...                        lambda a, b: np.zeros(len(a), dtype=bool))
     >>> bool(refuse.contains(shapely.Point(1.1, 0)))  # a gap bridge_ok refuses stays open
     True
+    >>> near = contour_bound(Sensed(0, np.zeros(2), bearing, rng, None), FreeSpaceParams(), 10.0, unreturned=4.0)
+    >>> [bool(near.contains(shapely.Point(-x, 0))) for x in (3.9, 4.0)]  # nothing returned within 4 m
+    [True, False]
     """
     ok = np.isfinite(s.range) & (s.range > 0)
     if not ok.any():
         return None
     theta = s.bearing
     u = np.column_stack([np.cos(theta), np.sin(theta)])
-    radius = np.where(ok, s.range, reach)
+    radius = np.where(ok, s.range, reach if unreturned is None else min(unreturned, reach))
     # runs of unreturned rays between returned ones (cyclic), bridged when the points are close
     idx = np.flatnonzero(ok)
     nxt = np.roll(idx, -1)
@@ -321,7 +330,8 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
         surfaces = _surfaces(s, bm, params.margin)
         if s.sonar is not None:
             sonar = open_space(s.sonar, extract_rcds(s.sonar, config.rcd, primitive=True), config.open_space)
-            bound = contour_bound(surfaces, params, s.sonar.params.max_range + 1.0)
+            far = s.sonar.params.max_range + 1.0
+            bound = contour_bound(surfaces, params, far, unreturned=config.sensors.lsl.max_range)
             seen.append(sonar if bound is None else shapely.intersection(sonar, bound))
         free = unite(seen)
         if len(p) and not free.is_empty:
