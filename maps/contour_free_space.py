@@ -51,7 +51,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed
-from evmap.sources.geometry import crossings, point_segment_distances
+from evmap.sources.geometry import crossings, near_segments
 from evmap.sources.params import LslParams
 
 __all__ = ["RayParams", "RayTally", "ray_features", "ray_tally", "stripe_edges", "went_on"]
@@ -128,9 +128,9 @@ def went_on(
     r = s.range[ok]
     xy = s.origin + r[:, None] * np.column_stack([np.cos(s.bearing[ok]), np.sin(s.bearing[ok])])
     tol = params.tolerance + 3 * params.range_noise * r
-    on = point_segment_distances(xy[:, None], noise[0][None], noise[1][None]).min(axis=1) <= tol
+    on = near_segments(xy, *noise, tol)
     if len(kept[0]) and on.any():
-        on[on] = point_segment_distances(xy[on, None], kept[0][None], kept[1][None]).min(axis=1) > tol[on]
+        on[on] = ~near_segments(xy[on], *kept, tol[on])
     out[ok[on]] = True
     return out
 

@@ -53,7 +53,7 @@ from numpy.typing import NDArray
 
 from evmap.maps.planner import lines
 from evmap.maps.sensed import Sensed, sensed
-from evmap.sources.geometry import point_segment_distances
+from evmap.sources.geometry import near_segments
 from evmap.sources.open_space import open_space, unite
 from evmap.sources.rcd import extract_rcds
 
@@ -178,7 +178,7 @@ def surface_rays(s: Sensed, p: NDArray[np.float64], q: NDArray[np.float64], marg
     ok = np.flatnonzero(np.isfinite(s.range))
     if len(ok) and len(p):
         xy = s.origin + s.range[ok, None] * np.column_stack([np.cos(s.bearing[ok]), np.sin(s.bearing[ok])])
-        hit[ok] = point_segment_distances(xy[:, None], p[None], q[None]).min(axis=1) <= margin
+        hit[ok] = near_segments(xy, p, q, margin)
     drop = np.isfinite(s.range) & (hit != on)
     if not drop.any():
         return s

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import numpy as np
+import shapely
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
@@ -20,6 +21,7 @@ __all__ = [
     "cross",
     "crossings",
     "merge_nearest",
+    "near_segments",
     "nearest_first_pairs",
     "perpendicular_feet",
     "point_segment_distances",
@@ -116,6 +118,29 @@ def point_segment_distances(xy: ArrayLike, p: ArrayLike, q: ArrayLike) -> NDArra
     t = np.clip(_parameters(xy, p, d), 0.0, 1.0)
     gap = p + t[..., None] * d - xy
     return np.hypot(gap[..., 0], gap[..., 1])
+
+
+def near_segments(xy: ArrayLike, p: ArrayLike, q: ArrayLike, tol: ArrayLike) -> NDArray[np.bool_]:
+    """Whether each point ``xy`` (K, 2) lies within ``tol`` (a number, or one per point) of some segment ``p``-``q``.
+
+    The same as ``point_segment_distances(xy[:, None], p[None], q[None]).min(axis=1) <= tol`` to the last bit,
+    without the (K, N) matrix: a spatial index of the segments gives the pairs within reach, whose distances
+    are then computed as that matrix's would be.
+
+    >>> near_segments([[0.5, 0.04], [0.5, 0.2], [3.0, 0.0]], [[0.0, 0.0]], [[1.0, 0.0]], [0.05, 0.05, 2.5]).tolist()
+    [True, False, True]
+    """
+    xy, p, q = (np.asarray(a, dtype=float).reshape(-1, 2) for a in (xy, p, q))
+    tol = np.broadcast_to(np.asarray(tol, dtype=float), len(xy))
+    out = np.zeros(len(xy), dtype=bool)
+    if not len(xy) or not len(p) or not (tol >= 0).any():
+        return out
+    reach = float(tol.max()) * (1 + 1e-9) + 1e-12  # a little more: every pair within tol is found
+    tree = shapely.STRtree(shapely.linestrings(np.stack([p, q], axis=1)))
+    point, segment = tree.query(shapely.points(xy), predicate="dwithin", distance=reach)
+    within = point_segment_distances(xy[point], p[segment], q[segment]) <= tol[point]
+    out[point[within]] = True
+    return out
 
 
 def segment_distances(a: ArrayLike, b: ArrayLike, p: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:

@@ -9,7 +9,14 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from evmap.sources import geometry
-from evmap.sources.geometry import cast_rays, cross, crossings, perpendicular_feet, ray_circle_distances
+from evmap.sources.geometry import (
+    cast_rays,
+    cross,
+    crossings,
+    perpendicular_feet,
+    point_segment_distances,
+    ray_circle_distances,
+)
 
 coordinate = st.floats(-5, 5)
 point = st.lists(coordinate, min_size=2, max_size=2).map(np.array)
@@ -170,3 +177,18 @@ def test_cast_rays_memory_grows_with_rays_plus_surfaces() -> None:
         tracemalloc.stop()
     assert np.all(hit >= 0) and np.all((ranges > 4.4) & (ranges < 5.6))
     assert peak < 300e6
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(0, 80), st.integers(0, 30))
+def test_near_segments_is_the_dense_test_to_the_last_bit(seed: int, k: int, n: int) -> None:
+    """The spatial index gives what the (K, N) distance matrix gives, tolerances one per point or one for all,
+    points exactly at a tolerance and segments of no length included."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(-3, 3, (k, 2))
+    p = rng.uniform(-3, 3, (n, 2))
+    q = p + rng.normal(0, 1, (n, 2)) * rng.choice([0.0, 1e-7, 1.0], (n, 1))
+    tol = rng.uniform(0, 0.6, k) if seed % 2 else 0.25
+    if k and n:  # a point exactly at its tolerance from a segment's end
+        xy[0] = q[0] + [0.0, tol[0] if seed % 2 else tol]
+    dense = point_segment_distances(xy[:, None], p[None], q[None]).min(axis=1) <= tol if k and n else np.zeros(k, bool)
+    assert np.array_equal(geometry.near_segments(xy, p, q, tol), dense)
