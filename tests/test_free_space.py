@@ -110,8 +110,11 @@ class _EveryLine:
     def __init__(self, geometries):
         self.n = len(geometries)
 
-    def query(self, *_, **__):
-        return np.arange(self.n)
+    def query(self, geometry, *_, **__):
+        if np.ndim(geometry) == 0:
+            return np.arange(self.n)
+        every = np.arange(self.n)
+        return np.stack([np.repeat(np.arange(len(geometry)), self.n), np.tile(every, len(geometry))])
 
 
 @pytest.mark.parametrize("kind", ["patrol", "log"])
