@@ -29,8 +29,9 @@ Bearings the contour did not look at leave the sonar's free space as it is.
 A sensor sees nothing behind a surface, so each pose's free space ends at the
 first believed line (``Bel(real) >= min_belief``) that it meets: the line's
 shadow from the pose is cut away; and at every believed unidentified object, a
-face ``object_width`` across toward each pose that heard it (glass heard at
-normal incidence: the stripe goes through the pane, the sonar does not). The
+face toward each pose that heard it, ``object_width`` across or the whole window
+it lies in (glass heard at normal incidence: the stripe goes through the pane, the
+sonar does not; :mod:`evmap.maps.object_faces`). The
 map's free space is the union over poses. A map that remembers no pose (hand-made, or from an older file) has its stored
 open space as it is.
 
@@ -51,6 +52,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from evmap.maps.object_faces import object_faces
 from evmap.maps.planner import lines
 from evmap.maps.sensed import Sensed, sensed
 from evmap.sources.geometry import near_segments
@@ -77,6 +79,7 @@ PRECISION = 1e-6
 """The free space's coordinates are snapped to this grid (m)."""
 
 
+
 @dataclass(frozen=True)
 class FreeSpaceParams:
     """Constants of the free space (metres, radians, belief)."""
@@ -86,6 +89,9 @@ class FreeSpaceParams:
     min_belief: float = 0.5  # lines believed at least this much end the free space
     bridge: float = 2.5  # a gap in the stripe between points at most this far apart (m) is bridged
     object_width: float = 0.6  # a believed unidentified object ends the free space over this width (m)
+    window: float = 4.0  # ... or over the gap between believed lines in line with it on both sides, this wide at most
+    in_line: float = 0.1  # a line's ends this close to an object's face's line are in line with it (m)
+    wall_length: float = 0.3  # lines at least this long bound a window (not a chair leg's, nor a door jamb's)
     # neighbouring rays whose ranges differ by more than this times the arc between them met no one surface:
     # a jump in range (a wall met 6 deg or more off its face stays one surface)
     steepness: float = 10.0
@@ -321,7 +327,7 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
     believed = lines(bm, params.min_belief)
     p = np.array([ln.p for ln in believed], dtype=float).reshape(-1, 2)
     q = np.array([ln.q for ln in believed], dtype=float).reshape(-1, 2)
-    op, oq = _object_faces(bm, {s.pose_index: s.origin for s in poses}, params)
+    op, oq = object_faces(bm, {s.pose_index: s.origin for s in poses}, params, (p, q))
     p, q = np.concatenate([p, op]), np.concatenate([q, oq])
     tree = shapely.STRtree(shapely.linestrings(np.stack([p, q], axis=1)))
     pieces = []
@@ -370,23 +376,3 @@ def _surface_points(bm: BeliefMap, params: FreeSpaceParams) -> shapely.STRtree:
         ok = np.isfinite(on.range)
         found.append(on.origin + on.range[ok, None] * np.column_stack([np.cos(on.bearing[ok]), np.sin(on.bearing[ok])]))
     return shapely.STRtree(shapely.points(np.concatenate(found)))
-
-
-def _object_faces(
-    bm: BeliefMap, origins: dict[int, NDArray[np.float64]], params: FreeSpaceParams
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """A face of every believed unidentified object toward each pose that heard it: ``object_width`` across."""
-    p, q = [], []
-    for u in bm.unidentified(params.min_belief):
-        xy = np.asarray(u.xy, dtype=float)
-        for pose in {r["pose"] for r in bm.graph.nodes[u.id].get("history", ()) if "pose" in r}:
-            if pose not in origins:
-                continue
-            d = xy - origins[pose]
-            n = np.hypot(*d)
-            if n <= 0:
-                continue
-            side = np.array([-d[1], d[0]]) / n * params.object_width / 2
-            p.append(xy - side)
-            q.append(xy + side)
-    return np.array(p, dtype=float).reshape(-1, 2), np.array(q, dtype=float).reshape(-1, 2)

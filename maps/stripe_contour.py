@@ -21,14 +21,12 @@ import shapely
 from numpy.typing import NDArray
 
 from evmap.maps.free_space import FreeSpaceParams, contour_bound, surface_rays
+from evmap.maps.object_faces import WALL_ANGLE
 from evmap.maps.sensed import Sensed
 from evmap.sources.geometry import point_segment_distances
 from evmap.sources.params import UnidentifiedParams
 
-__all__ = ["WALL_ANGLE", "in_line", "stripe_bound"]
-
-WALL_ANGLE = np.radians(10.0)
-"""A gap in the stripe is a pane in a wall when its chord is this parallel to the believed lines at both ends."""
+__all__ = ["in_line", "stripe_bound"]
 
 
 def stripe_bound(

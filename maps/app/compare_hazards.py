@@ -10,9 +10,11 @@
   (the rest the stripe saw through glass: free air, but beyond a pane that only the
   sonar hears, at normal incidence).
 - :func:`free_seen_kept`: of the places the stripe saw free (:func:`stripe_seen`: a
-  lattice point in front of the first opaque surface a pose's ray meets within
-  the stripe's range, not within a cell of any surface), the share the grid marks
-  free: safety must not be bought by marking nothing free.
+  lattice point in front of the first surface a pose's ray meets, glass included,
+  the ray returning from an opaque one within the stripe's range, not within a cell
+  of any surface), the share the grid marks free: safety must not be bought by
+  marking nothing free. Beyond a pane the stripe sees free air, but a robot cannot
+  go there: it is behind a wall (:func:`free_behind_walls`), not free space a pose saw.
 - :func:`sunlight_seen_twice`: every sunlight region that a pose sees is in range and in
   sight of two poses or more (the worlds where persistence across poses can work).
 
@@ -121,9 +123,10 @@ def free_seen_kept(bm: BeliefMap, seen: NDArray[np.float64]) -> tuple[int, int]:
 def stripe_seen(world: World, config: Config) -> NDArray[np.float64]:
     """The places (M, 2) of a :data:`SEEN_STEP` lattice that some pose's stripe saw free (module doc).
 
-    A place is seen from a pose when the ray to it meets no opaque surface before it
-    (less a cell), and does meet one within the stripe's ``max_range`` (the ray
-    returned); places within a cell of any true surface are left out.
+    A place is seen from a pose when the ray to it meets no true surface before it
+    (less a cell), glass included, and meets an opaque one within the stripe's
+    ``max_range`` (the ray returned); places within a cell of any true surface are
+    left out.
     """
     s = world.surfaces()
     _, lsl = world.scenario.sensor_params(config.sensors.sonar, config.sensors.lsl)
@@ -150,8 +153,9 @@ def stripe_seen(world: World, config: Config) -> NDArray[np.float64]:
         for k in range(0, len(near), _CHUNK):
             chunk = near[k : k + _CHUNK]
             angles = np.arctan2(d[chunk, 1], d[chunk, 0])
-            ranges, _ = cast_rays((px, py), angles, p, q, centers, radii, lsl.max_range)
-            seen[chunk] = np.isfinite(ranges) & (dist[chunk] < ranges - GRID_RESOLUTION)
+            returned, _ = cast_rays((px, py), angles, p, q, centers, radii, lsl.max_range)
+            first, _ = cast_rays((px, py), angles, s.p, s.q, s.cylinder_centers, s.cylinder_radii, lsl.max_range)
+            seen[chunk] = np.isfinite(returned) & (dist[chunk] < first - GRID_RESOLUTION)
     return xy[seen]
 
 

@@ -153,8 +153,8 @@ DEFINITIONS = {
         "every pose's sight line meets one more than a cell before the cell / free cells"
     ),
     "free_seen_kept": (
-        f"places of a {SEEN_STEP} m lattice that a pose's stripe saw free (in front of the first opaque surface of "
-        "the ray, which returned) and not within a cell of any surface, that the grid marks free / such places"
+        f"places of a {SEEN_STEP} m lattice that a pose's stripe saw free (in front of the first surface of the ray, "
+        "glass included; the ray returned) and not within a cell of any surface, that the grid marks free / such places"
     ),
     "glass_heard_explained": (
         "the same share as `glass_explained` over the glass walls some pose's sonar really heard at normal "

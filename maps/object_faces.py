@@ -1,0 +1,83 @@
+"""The faces of the map's believed unidentified objects, where each ends the free space of the poses that heard it.
+
+An unidentified object is something the sonar heard that no line of the map explains:
+glass heard at normal incidence, mostly, which the stripe goes through. Its face toward
+a pose that heard it is square to the pose's bearing (a specular surface echoes back
+along its normal), ``object_width`` across: the free space (:mod:`evmap.maps.free_space`)
+ends there. A face in line with believed lines on both sides of it (their ends within
+``in_line`` of the face's line, their directions within :data:`WALL_ANGLE` of it, each
+at least ``wall_length`` long) whose nearest ends are at most ``window`` apart spans
+the gap between those ends instead: the pane of a window, of which the sonar hears
+only the part square to the pose, and the stripe nothing. Lines shorter than
+``wall_length`` (a chair leg's, a door jamb's stub) bound no window: a door is a gap
+in a wall too, and something heard in it is no pane.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from evmap.maps.belief_map import BeliefMap
+    from evmap.maps.free_space import FreeSpaceParams
+
+__all__ = ["WALL_ANGLE", "object_faces"]
+
+WALL_ANGLE = np.radians(10.0)
+"""A pane is in a wall when it is this parallel to the believed lines on both sides of it: a gap in the
+stripe whose chord is (:func:`evmap.maps.stripe_contour.in_line`), an object's face (module doc)."""
+
+
+def object_faces(
+    bm: BeliefMap,
+    origins: dict[int, NDArray[np.float64]],
+    params: FreeSpaceParams,
+    walls: tuple[NDArray[np.float64], NDArray[np.float64]],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A face of every believed unidentified object toward each pose that heard it: ``object_width`` across, or
+    the window between the believed lines ``walls`` (their ends p, q) in line with it on both sides (module doc)."""
+    p, q = [], []
+    for u in bm.unidentified(params.min_belief):
+        xy = np.asarray(u.xy, dtype=float)
+        for pose in {r["pose"] for r in bm.graph.nodes[u.id].get("history", ()) if "pose" in r}:
+            if pose not in origins:
+                continue
+            d = xy - origins[pose]
+            n = np.hypot(*d)
+            if n <= 0:
+                continue
+            side = np.array([-d[1], d[0]]) / n
+            lo, hi = _window(xy, side, walls, params)
+            p.append(xy + lo * side)
+            q.append(xy + hi * side)
+    return np.array(p, dtype=float).reshape(-1, 2), np.array(q, dtype=float).reshape(-1, 2)
+
+
+def _window(
+    xy: NDArray[np.float64],
+    side: NDArray[np.float64],
+    walls: tuple[NDArray[np.float64], NDArray[np.float64]],
+    params: FreeSpaceParams,
+) -> tuple[float, float]:
+    """Where the face of an object at ``xy`` along the unit vector ``side`` ends on either side of it (m along
+    ``side``): at the nearest ends of the walls in line with it on both sides, when they are at most ``window``
+    apart; else ``object_width`` across."""
+    half = params.object_width / 2
+    wp, wq = walls
+    if not len(wp):
+        return -half, half
+    normal = np.array([-side[1], side[0]])
+    off_p, off_q = (wp - xy) @ normal, (wq - xy) @ normal
+    length = np.hypot(*(wq - wp).T)
+    along = np.abs((wq - wp) @ side) >= np.cos(WALL_ANGLE) * length
+    ok = along & (length >= params.wall_length) & (np.abs(off_p) <= params.in_line) & (np.abs(off_q) <= params.in_line)
+    sp, sq = (wp - xy) @ side, (wq - xy) @ side
+    near, far = np.minimum(sp, sq), np.maximum(sp, sq)
+    right, left = ok & (near > 0), ok & (far < 0)
+    if not right.any() or not left.any():
+        return -half, half
+    lo, hi = float(far[left].max()), float(near[right].min())
+    return (min(lo, -half), max(hi, half)) if hi - lo <= params.window else (-half, half)
