@@ -79,7 +79,6 @@ PRECISION = 1e-6
 """The free space's coordinates are snapped to this grid (m)."""
 
 
-
 @dataclass(frozen=True)
 class FreeSpaceParams:
     """Constants of the free space (metres, radians, belief)."""
