@@ -89,7 +89,7 @@ class FreeSpaceParams:
     bridge: float = 2.5  # a gap in the stripe between points at most this far apart (m) is bridged
     object_width: float = 0.6  # a believed unidentified object ends the free space over this width (m)
     window: float = 4.0  # ... or over the gap between believed lines in line with it on both sides, this wide at most
-    in_line: float = 0.1  # a line's ends this close to an object's face's line are in line with it (m)
+    in_line: float = 0.1  # an object this close to a believed line's own line is in line with it (m)
     wall_length: float = 0.3  # lines at least this long bound a window (not a chair leg's, nor a door jamb's)
     # neighbouring rays whose ranges differ by more than this times the arc between them met no one surface:
     # a jump in range (a wall met 6 deg or more off its face stays one surface)

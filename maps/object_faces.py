@@ -4,11 +4,11 @@ An unidentified object is something the sonar heard that no line of the map expl
 glass heard at normal incidence, mostly, which the stripe goes through. Its face toward
 a pose that heard it is square to the pose's bearing (a specular surface echoes back
 along its normal), ``object_width`` across: the free space (:mod:`evmap.maps.free_space`)
-ends there. A face in line with believed lines on both sides of it (their ends within
-``in_line`` of the face's line, their directions within :data:`WALL_ANGLE` of it, each
-at least ``wall_length`` long) whose nearest ends are at most ``window`` apart spans
-the gap between those ends instead: the pane of a window, of which the sonar hears
-only the part square to the pose, and the stripe nothing. Lines shorter than
+ends there. A face in line with believed lines on both sides of it (the object within
+``in_line`` of each line's own line, their directions within :data:`WALL_ANGLE` of the
+face, each at least ``wall_length`` long) whose nearest ends are at most ``window``
+apart is the chord between those ends instead: the pane of a window, of which the
+sonar hears only the part square to the pose, and the stripe nothing. Lines shorter than
 ``wall_length`` (a chair leg's, a door jamb's stub) bound no window: a door is a gap
 in a wall too, and something heard in it is no pane.
 """
@@ -50,9 +50,9 @@ def object_faces(
             if n <= 0:
                 continue
             side = np.array([-d[1], d[0]]) / n
-            lo, hi = _window(xy, side, walls, params)
-            p.append(xy + lo * side)
-            q.append(xy + hi * side)
+            a, b = _window(xy, side, walls, params)
+            p.append(a)
+            q.append(b)
     return np.array(p, dtype=float).reshape(-1, 2), np.array(q, dtype=float).reshape(-1, 2)
 
 
@@ -61,23 +61,29 @@ def _window(
     side: NDArray[np.float64],
     walls: tuple[NDArray[np.float64], NDArray[np.float64]],
     params: FreeSpaceParams,
-) -> tuple[float, float]:
-    """Where the face of an object at ``xy`` along the unit vector ``side`` ends on either side of it (m along
-    ``side``): at the nearest ends of the walls in line with it on both sides, when they are at most ``window``
-    apart; else ``object_width`` across."""
-    half = params.object_width / 2
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The ends of the face of an object at ``xy`` square to a pose (``side``: a unit vector along it): the
+    nearest ends of the walls in line with it on either side, when they are at most ``window`` apart and the
+    face between them is wider than ``object_width``; else ``object_width`` across."""
+    half = side * params.object_width / 2
     wp, wq = walls
     if not len(wp):
-        return -half, half
-    normal = np.array([-side[1], side[0]])
-    off_p, off_q = (wp - xy) @ normal, (wq - xy) @ normal
-    length = np.hypot(*(wq - wp).T)
-    along = np.abs((wq - wp) @ side) >= np.cos(WALL_ANGLE) * length
-    ok = along & (length >= params.wall_length) & (np.abs(off_p) <= params.in_line) & (np.abs(off_q) <= params.in_line)
+        return xy - half, xy + half
+    d = wq - wp
+    length = np.hypot(*d.T)
+    to_line = np.abs(d[:, 0] * (xy[1] - wp[:, 1]) - d[:, 1] * (xy[0] - wp[:, 0])) / np.maximum(length, 1e-12)
+    ok = (
+        (np.abs(d @ side) >= np.cos(WALL_ANGLE) * length) & (length >= params.wall_length) & (to_line <= params.in_line)
+    )
     sp, sq = (wp - xy) @ side, (wq - xy) @ side
-    near, far = np.minimum(sp, sq), np.maximum(sp, sq)
-    right, left = ok & (near > 0), ok & (far < 0)
+    near = np.where(sp < sq, 0, 1)  # which end of each wall is nearer the object along the face
+    right, left = ok & (np.minimum(sp, sq) > 0), ok & (np.maximum(sp, sq) < 0)
     if not right.any() or not left.any():
-        return -half, half
-    lo, hi = float(far[left].max()), float(near[right].min())
-    return (min(lo, -half), max(hi, half)) if hi - lo <= params.window else (-half, half)
+        return xy - half, xy + half
+    ends = np.stack([wp, wq], axis=1)
+    r = np.flatnonzero(right)[np.argmin(np.minimum(sp, sq)[right])]
+    l_ = np.flatnonzero(left)[np.argmax(np.maximum(sp, sq)[left])]
+    a, b = ends[l_, 1 - near[l_]], ends[r, near[r]]
+    if np.hypot(*(b - a)) > params.window:
+        return xy - half, xy + half
+    return a, b
