@@ -13,9 +13,8 @@ sonar, matching, reinforcement, unidentified objects).
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -128,7 +127,7 @@ def sensing_config(world: World, config: Config) -> Config:
     5.0
     """
     sonar, lsl = world.scenario.sensor_params(config.sensors.sonar, config.sensors.lsl)
-    return dataclasses.replace(config, sensors=SensorsParams(sonar=sonar, lsl=lsl))
+    return replace(config, sensors=SensorsParams(sonar=sonar, lsl=lsl))
 
 
 def observe(world: World, pose_index: int, config: Config) -> Observation:
