@@ -56,14 +56,13 @@ from evmap.maps.object_faces import object_faces
 from evmap.maps.planner import lines
 from evmap.maps.sensed import Sensed, sensed
 from evmap.sources.geometry import near_segments
-from evmap.sources.open_space import open_space, unite
+from evmap.sources.open_space import GRID, open_space, unite
 from evmap.sources.rcd import extract_rcds
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
 __all__ = [
-    "PRECISION",
     "FreeSpaceParams",
     "contour_bound",
     "free_space",
@@ -73,10 +72,6 @@ __all__ = [
     "surface_points",
     "surface_rays",
 ]
-
-
-PRECISION = 1e-6
-"""The free space's coordinates are snapped to this grid (m)."""
 
 
 @dataclass(frozen=True)
@@ -349,7 +344,7 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
             free = shapely.difference(free, shadows(s.origin, p[near], q[near], reach))
         pieces.append(shapely.difference(free, _band(surfaces, params)))
     # snapped to the micrometre: the unions of touching sectors leave cracks of no width that a path crosses
-    union = shapely.set_precision(unite(pieces), PRECISION)
+    union = shapely.set_precision(unite(pieces), GRID)
     polygons = [g for g in shapely.get_parts(union) if isinstance(g, shapely.Polygon) and not g.is_empty]
     made = unite(polygons) if polygons else shapely.Polygon()
     shapely.prepare(made)

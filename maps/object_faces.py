@@ -63,8 +63,8 @@ def _window(
     params: FreeSpaceParams,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The ends of the face of an object at ``xy`` square to a pose (``side``: a unit vector along it): the
-    nearest ends of the walls in line with it on either side, when they are at most ``window`` apart and the
-    face between them is wider than ``object_width``; else ``object_width`` across."""
+    nearest ends of the walls in line with it on either side, when they are at most ``window`` apart; else
+    ``object_width`` across."""
     half = side * params.object_width / 2
     wp, wq = walls
     if not len(wp):

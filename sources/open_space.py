@@ -29,7 +29,7 @@ from evmap.sources.readings import SonarScan
 __all__ = ["GRID", "open_space", "unite"]
 
 GRID = 1e-6
-"""The grid (m) of :func:`unite`'s snap-rounding."""
+"""The micrometre grid (m) of :func:`unite`'s snap-rounding; the map's free space is snapped to it too."""
 
 
 def unite(geometries: Sequence[shapely.Geometry]) -> shapely.Geometry:
