@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from evidential import combine_batch
 from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally, stripe_edges, went_on
 from evmap.maps.merging import related_pairs
-from evmap.maps.sensed import SENSED_FEATURES, Sensed, keep_features, sensed_near
+from evmap.maps.sensed import SENSED_FEATURES, Sensed, keep_features, kept_features, sensed_near
 from evmap.maps.sonar_forward import SonarForwardParams, free_ends, sonar_forward
 from evmap.sources.config_model import Config
 from evmap.sources.params import MergeParams
@@ -113,8 +113,9 @@ def noise_evidence(
     return NoiseEvidence(features["relation"], features["length"], fused, np.ascontiguousarray(k), eliminated)
 
 
-def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
-    """Noise elimination of the map's stored segments ``ids`` against the map's open space.
+def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> NDArray[np.intp]:
+    """Noise elimination of the map's stored segments ``ids`` against the map's open space; returns those of
+    them whose relation, mass, fate or sensed features it changed (what their lines' evidence is made of).
 
     Writes each segment's relation, fused mass, conflict and fate into the map's
     segment store; the open space and the other poses' segments are looked up
@@ -130,7 +131,8 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
     """
     store = bm.segments
     if not len(ids):
-        return
+        return ids
+    before = _verdicts(bm, ids)
     p, q, pose = store.p[ids], store.q[ids], store.pose[ids]
     ends = np.concatenate([p, q])
     lo, hi = ends.min(axis=0), ends.max(axis=0)
@@ -160,6 +162,14 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> None:
         ev = noise_evidence(p, q, space, config, features)
     keep_features(bm, ids, {name: features[name] for name in SENSED_FEATURES if name in features})
     store.write(ids, relation=ev.relation, mass=ev.fused, conflict=ev.conflict, eliminated=ev.eliminated)
+    after = _verdicts(bm, ids)
+    return ids[np.logical_or.reduce([(a != b).reshape(len(ids), -1).any(axis=1) for a, b in zip(before, after)])]
+
+
+def _verdicts(bm: BeliefMap, ids: NDArray[np.intp]) -> list[NDArray[np.generic]]:
+    """What :func:`judge` writes of the segments ``ids``: relation, mass, fate and sensed features."""
+    store = bm.segments
+    return [store.relation[ids], store.mass[ids], store.eliminated[ids], *kept_features(bm, ids).values()]
 
 
 def settled(bm: BeliefMap, rows: NDArray[np.intp]) -> NDArray[np.bool_]:

@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from evmap.maps.contour_free_space import RayParams, ray_tally
 from evmap.maps.map_json import gc_paused
+from evmap.maps.merging import related_pairs
 from evmap.maps.noise import COMPUTED, judge, unsettled
 from evmap.maps.observation import Observation
 from evmap.maps.rebuild import rebuild, refresh_points
@@ -118,10 +119,10 @@ def _fold(bm: BeliefMap, obs: Observation, config: Config) -> PoseOutcome:
     # 2. noise elimination of the new segments and of the stored ones the new open space reaches
     new = store.append(obs.lsl.p, obs.lsl.q, np.full(len(obs.lsl), obs.pose_index), obs.lsl.truth, obs.features)
     touched = touched_segments(bm, new, space, config, pose_sensed(bm, obs.pose_index))
-    judge(bm, touched, config)
+    changed = judge(bm, touched, config)
 
     # 3.-4. merge and find corners near the change
-    touched_lines = rebuild(bm, touched, config, pose[:2])
+    touched_lines = rebuild(bm, _to_rebuild(bm, np.union1d(new, changed), space, config), config, pose[:2])
 
     # 5.-7. simulated sonar, matching, reinforcement, unidentified objects
     if obs.sonar is None:
@@ -179,6 +180,34 @@ def touched_segments(
         passes = ray_tally(store.p[seen], store.q[seen], store.pose[seen], [sensed], params).passes
         found = np.union1d(found, seen[passes >= params.min_passes])
     return unsettled(bm, found)
+
+
+def _to_rebuild(bm: BeliefMap, changed: NDArray[np.intp], space: shapely.Geometry, config: Config) -> NDArray[np.intp]:
+    """The segments whose lines an update rebuilds: the ``changed`` ones (new, or judged anew to another
+    verdict), those that are merging's candidates with a changed one no line holds (new, or no longer noise:
+    it may join them; the rebuild finds merging's candidates among lines), and the segments of the lines the
+    new open space ``space`` meets (a line's relation to the open space is its own, not its segments'). The
+    lines of the other segments judged again keep their evidence: it is made of their segments' verdicts."""
+    store = bm.segments
+    loose = changed[~store.eliminated[changed] & (store.line[changed] == "")]
+    margin = config.merge.distance + config.merge.gap
+    grown = np.hstack([np.minimum(store.p[loose], store.q[loose]), np.maximum(store.p[loose], store.q[loose])])
+    near = unsettled(bm, store.near(grown + np.array([-margin, -margin, margin, margin])))
+    near = near[~store.eliminated[near]]
+    others = (store.p[near], store.q[near])
+    _, joins, _ = related_pairs(store.p[loose], store.q[loose], config.merge, others, mergeable=True)
+    return np.unique(np.concatenate([changed, near[joins], _members_reached(bm, space)]))
+
+
+def _members_reached(bm: BeliefMap, space: shapely.Geometry) -> NDArray[np.intp]:
+    """The segments of the map's lines that meet the open space ``space``."""
+    if space.is_empty:
+        return np.zeros(0, dtype=np.intp)
+    ids = sorted(bm.near(shapely.bounds(shapely.get_parts(space)), "lines"))
+    data = [bm.graph.edge(*bm.ends(lid)) for lid in ids]
+    fits = shapely.linestrings(np.array([d["fit"] for d in data], dtype=float).reshape(-1, 2, 2))
+    met = np.flatnonzero(shapely.intersects(fits, space)).tolist()
+    return np.unique(np.array([m for k in met for m in data[k]["members"]], dtype=np.intp))
 
 
 def check_observation(bm: BeliefMap, obs: Observation, config: Config) -> None:

@@ -8,15 +8,17 @@ import pytest
 import shapely
 
 from evmap import configs
+from evmap.maps import pipeline
 from evmap.maps.app.log_run import run_log
 from evmap.maps.app.run import run_scenario
 from evmap.maps.belief_map import new_map
 from evmap.maps.corners import find_corners
 from evmap.maps.log_observation import observation_from_log
 from evmap.maps.merging import merge_segments
-from evmap.maps.noise import LATEST_POSES, settled
+from evmap.maps.noise import LATEST_POSES, judge, settled
 from evmap.maps.observation import Observation, observe
 from evmap.maps.pipeline import touched_segments
+from evmap.maps.rebuild import rebuild
 from evmap.maps.sensed import pose_sensed, remember
 from evmap.sources.config import load_config
 from evmap.sources.logs.scan import LaserScan, LogRecord
@@ -182,3 +184,29 @@ def test_a_line_that_grows_toward_a_line_no_update_touched_joins_it():
     whole = merge_segments(store.p, store.q, bm.config.merge)
     assert [g.tolist() for g in whole.groups] == [[0, 1, 2]]
     assert [d["members"] for _, _, d in bm.graph.edges()] == [[0, 1, 2]]
+
+
+def test_lines_whose_segments_keep_their_verdict_are_not_rebuilt(monkeypatch):
+    """A segment 8 cm from a wall, too far to merge with it: the wall's segment is judged again (it is near), keeps
+    its verdict, and its line is left out of the rebuild; judging the same segments again changes nothing."""
+    config = load_config("default")
+    bm = new_map(config)
+    bm.update(laser_only(0, [[0, 0]], [[2, 0]]))
+    judged, rebuilt = [], []
+    monkeypatch.setattr(pipeline, "judge", lambda bm, ids, config: judged.append(ids) or judge(bm, ids, config))
+    monkeypatch.setattr(pipeline, "rebuild", lambda bm, rows, *a: rebuilt.append(rows) or rebuild(bm, rows, *a))
+    bm.update(laser_only(1, [[0.5, 0.08]], [[1.5, 0.08]]))
+    assert judged[0].tolist() == [0, 1] and rebuilt[0].tolist() == [1]
+    assert judge(bm, np.array([0, 1]), config).tolist() == []
+    assert sorted(d["members"] for _, _, d in bm.graph.edges()) == [[0], [1]]
+
+
+def test_a_segment_that_joins_a_line_brings_the_line_into_the_rebuild(monkeypatch):
+    """A second piece of the wall, merging's candidate with the first: its line is rebuilt with it."""
+    bm = new_map(load_config("default"))
+    bm.update(laser_only(0, [[0, 0]], [[1, 0]]))
+    rebuilt = []
+    monkeypatch.setattr(pipeline, "rebuild", lambda bm, rows, *a: rebuilt.append(rows) or rebuild(bm, rows, *a))
+    bm.update(laser_only(1, [[0.9, 0.01], [0.5, 0.5]], [[2, 0.01], [0.5, 1.5]]))
+    assert rebuilt[0].tolist() == [0, 1, 2]
+    assert sorted(d["members"] for _, _, d in bm.graph.edges()) == [[0, 1], [2]]
