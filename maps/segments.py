@@ -395,6 +395,8 @@ def _boxes(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64
 
 def _file_by_pose(by_pose: dict[int, list[NDArray[np.intp]]], ids: NDArray[np.intp], pose: NDArray[np.intp]) -> None:
     """File the rows ``ids`` (ascending, after every row filed before), seen from ``pose``, under their poses."""
+    if not len(ids):  # an observation that saw no segment
+        return
     if len(ids) == 1:  # a consolidation's support: one row, no sorting
         by_pose.setdefault(int(pose[0]), []).append(ids)
         return

@@ -38,6 +38,16 @@ def test_append_grows_and_columns_are_read_only_views_written_by_the_store():
     ]
 
 
+def test_a_pose_that_saw_no_segment_is_filed_once_the_rows_are_filed_by_pose():
+    """A stripe that saw nothing, after the rows were looked up by pose (the rays of a sensor that reports every
+    surface it lit): no rows, and the other poses' rows as they were."""
+    store = SegmentStore.empty(Frame(["real", "noise"]))
+    store.append([[0, 0], [1, 0]], [[1, 0], [2, 0]], [0, 1], ["", ""])
+    assert store.seen_from(1).tolist() == [1]
+    assert store.append(np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0, dtype=int), np.zeros(0, dtype=str)).size == 0
+    assert store.seen_from(2).tolist() == [] and store.seen_from(0).tolist() == [0]
+
+
 def test_restore_puts_back_what_was_written_since_the_checkpoint_and_drops_the_rows_appended():
     store = SegmentStore.empty(FRAME)
     store.append([[0.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [2.0, 0.0]], [0, 0], ["", ""])
