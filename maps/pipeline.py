@@ -49,6 +49,7 @@ from evmap.sources.config_model import Config
 from evmap.sources.open_space import open_space
 from evmap.sources.rcd import Rcds, extract_rcds
 from evmap.sources.readings import SonarScan
+from evmap.sources.relation import relation
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
@@ -185,8 +186,8 @@ def touched_segments(
 def _to_rebuild(bm: BeliefMap, changed: NDArray[np.intp], space: shapely.Geometry, config: Config) -> NDArray[np.intp]:
     """The segments whose lines an update rebuilds: the ``changed`` ones (new, or judged anew to another
     verdict), those that are merging's candidates with a changed one no line holds (new, or no longer noise:
-    it may join them; the rebuild finds merging's candidates among lines), and the segments of the lines the
-    new open space ``space`` meets (a line's relation to the open space is its own, not its segments'). The
+    it may join them; the rebuild finds merging's candidates among lines), and the segments of the lines whose
+    relation to the open space the new open space ``space`` changes (a line's is its own, not its segments'). The
     lines of the other segments judged again keep their evidence: it is made of their segments' verdicts."""
     store = bm.segments
     loose = changed[~store.eliminated[changed] & (store.line[changed] == "")]
@@ -196,18 +197,26 @@ def _to_rebuild(bm: BeliefMap, changed: NDArray[np.intp], space: shapely.Geometr
     near = near[~store.eliminated[near]]
     others = (store.p[near], store.q[near])
     _, joins, _ = related_pairs(store.p[loose], store.q[loose], config.merge, others, mergeable=True)
-    return np.unique(np.concatenate([changed, near[joins], _members_reached(bm, space)]))
+    return np.unique(np.concatenate([changed, near[joins], _members_reached(bm, space, config)]))
 
 
-def _members_reached(bm: BeliefMap, space: shapely.Geometry) -> NDArray[np.intp]:
-    """The segments of the map's lines that meet the open space ``space``."""
+def _members_reached(bm: BeliefMap, space: shapely.Geometry, config: Config) -> NDArray[np.intp]:
+    """The segments of the map's lines that the open space ``space`` meets and whose relation to the map's open
+    space it changes."""
     if space.is_empty:
         return np.zeros(0, dtype=np.intp)
     ids = sorted(bm.near(shapely.bounds(shapely.get_parts(space)), "lines"))
     data = [bm.graph.edge(*bm.ends(lid)) for lid in ids]
-    fits = shapely.linestrings(np.array([d["fit"] for d in data], dtype=float).reshape(-1, 2, 2))
-    met = np.flatnonzero(shapely.intersects(fits, space)).tolist()
-    return np.unique(np.array([m for k in met for m in data[k]["members"]], dtype=np.intp))
+    fits = np.array([d["fit"] for d in data], dtype=float).reshape(-1, 2, 2)
+    met = np.flatnonzero(shapely.intersects(shapely.linestrings(fits), space))
+    if not len(met):
+        return np.zeros(0, dtype=np.intp)
+    p, q = fits[met, 0], fits[met, 1]
+    ends = np.concatenate([p, q])
+    now = relation(p, q, bm.open_space_parts_near((*ends.min(axis=0), *ends.max(axis=0))), config.noise)
+    was = [(data[k]["history"] or [{}])[0].get("relation") for k in met.tolist()]  # none: a line added by hand
+    moved = met[now != np.array(was)].tolist()
+    return np.unique(np.array([m for k in moved for m in data[k]["members"]], dtype=np.intp))
 
 
 def check_observation(bm: BeliefMap, obs: Observation, config: Config) -> None:

@@ -210,3 +210,23 @@ def test_a_segment_that_joins_a_line_brings_the_line_into_the_rebuild(monkeypatc
     bm.update(laser_only(1, [[0.9, 0.01], [0.5, 0.5]], [[2, 0.01], [0.5, 1.5]]))
     assert rebuilt[0].tolist() == [0, 1, 2]
     assert sorted(d["members"] for _, _, d in bm.graph.edges()) == [[0, 1], [2]]
+
+
+def test_open_space_that_changes_no_line_relation_rebuilds_no_line(monkeypatch):
+    """The corridor's sonar heard again from the same place, the stripe seeing nothing: the new open space meets
+    the map's lines but changes the relation of none, and no segment's verdict changes: nothing is rebuilt."""
+    config = load_config("default")
+    first = observe(World(default_scenario()), 0, config)
+    bm = new_map(config)
+    bm.update(first)
+    lines = {lid: list(bm.graph.edge(*bm.ends(lid))["fit"]) for lid in bm.line_ids()}
+    rebuilt = []
+    monkeypatch.setattr(pipeline, "rebuild", lambda bm, rows, *a: rebuilt.append(rows) or rebuild(bm, rows, *a))
+    none, nothing = np.zeros((0, 2)), np.zeros(0, dtype=np.intp)
+    lsl = LslSegments(none, none, np.zeros(0, dtype=str), nothing, np.zeros(0, dtype=str), nothing)
+    features = {name: np.asarray(values)[:0] for name, values in first.features.items()}
+    bm.update(dataclasses.replace(first, pose_index=1, lsl=lsl, features=features, rays=None))
+    fits = shapely.linestrings(np.array(list(lines.values())))
+    assert shapely.intersects(fits, bm.open_space).sum() >= 10  # the open space meets the corridor's lines
+    assert rebuilt[0].tolist() == []
+    assert {lid: list(bm.graph.edge(*bm.ends(lid))["fit"]) for lid in bm.line_ids()} == lines
