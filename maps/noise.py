@@ -153,8 +153,11 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> NDArray[np.in
         features |= _ray_features(store, ids, poses, params)
     if "sonar_forward" in read:
         sonar = SonarForwardParams()
-        free = free_ends(p, q, cp, cq, sonar.end_clearance) & stripe_edges(p, q, pose, poses, params)
-        features["sonar_forward"] = sonar_forward(p, q, free, poses, sonar)
+        heard = [s for s in poses if s.sonar is not None]  # no sonar reading: silent, nothing to compute
+        free = np.zeros((len(p), 2), dtype=bool)
+        if heard:
+            free = free_ends(p, q, cp, cq, sonar.end_clearance) & stripe_edges(p, q, pose, poses, params)
+        features["sonar_forward"] = sonar_forward(p, q, free, heard, sonar)
     ev = noise_evidence(p, q, space, config, features)
     if rays and any(s.all_returns for s in poses) and (ev.eliminated & ~store.eliminated[ids]).any():
         store.write(ids, eliminated=ev.eliminated)  # a second look, through what this judgement found noise
