@@ -19,7 +19,9 @@ sonar stages 1 and 5-7: no open space, nothing simulated, matched, reinforced
 or unidentified; its outcome says so (``sonar`` None).
 
 Only the part of the map near the new observation is rebuilt, so an update
-costs what the observation touches. Rebuilding the whole map from its stored
+costs what the observation touches: the lines of the segments whose verdict
+stage 2 changed, of the new ones and their merging candidates, and of the
+lines whose relation to the open space the new open space changes. Rebuilding the whole map from its stored
 segments gives the same lines and corners on the simulated tours and the log
 excerpt the tests run; over a long log a few related lines that no later update
 came near stay apart (they are among the related pairs ``benchmarks/bench_logs.py``
