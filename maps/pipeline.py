@@ -21,11 +21,12 @@ or unidentified; its outcome says so (``sonar`` None).
 Only the part of the map near the new observation is rebuilt, so an update
 costs what the observation touches: the lines of the segments whose verdict
 stage 2 changed, of the new ones and their merging candidates, and of the
-lines whose relation to the open space the new open space changes. Rebuilding the whole map from its stored
-segments gives the same lines and corners on the simulated tours and the log
-excerpt the tests run; over a long log a few related lines that no later update
-came near stay apart (they are among the related pairs ``benchmarks/bench_logs.py``
-counts), and the corners are those of the lines.
+lines whose relation to the open space the new open space changes.
+Rebuilding the whole map from its stored segments gives the same lines and
+corners on the simulated tours and the log excerpts the tests run; over a long
+log a few related lines that no later update came near stay apart (they are
+among the related pairs ``benchmarks/bench_logs.py`` counts), and the corners
+are those of the lines.
 """
 
 from __future__ import annotations
@@ -188,9 +189,10 @@ def touched_segments(
 def _to_rebuild(bm: BeliefMap, changed: NDArray[np.intp], space: shapely.Geometry, config: Config) -> NDArray[np.intp]:
     """The segments whose lines an update rebuilds: the ``changed`` ones (new, or judged anew to another
     verdict), those that are merging's candidates with a changed one no line holds (new, or no longer noise:
-    it may join them; the rebuild finds merging's candidates among lines), and the segments of the lines whose
-    relation to the open space the new open space ``space`` changes (a line's is its own, not its segments'). The
-    lines of the other segments judged again keep their evidence: it is made of their segments' verdicts."""
+    it may join them; the rebuild finds merging's candidates among lines), and the segments of the lines
+    whose relation to the open space the new open space ``space`` changes (a line's is its own, not its
+    segments'). The lines of the other segments judged again keep their evidence: it is made of their
+    segments' verdicts."""
     store = bm.segments
     loose = changed[~store.eliminated[changed] & (store.line[changed] == "")]
     margin = config.merge.distance + config.merge.gap
