@@ -397,7 +397,7 @@ def _attach(
             node = end_point.get((i, e))
             if node is None or (nodes and (nodes[0] == node or g.has_edge(nodes[0], node))):
                 node = bm.new_id("E")  # a free end, or a second line between the same two points
-                bm.add_point(node, line.fit[e], "endpoint", bm.vacuous())
+                bm.add_point(node, line.fit[e], "endpoint", line.data["mass"])  # what its line believes
             nodes.append(node)
         data = line.data
         extras = {k: v for k, v in data.items() if k not in ("id", "kind", "mass", "history", "fit")}
