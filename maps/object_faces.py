@@ -20,6 +20,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from evmap.sources.geometry import line_distances
+
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
     from evmap.maps.free_space import FreeSpaceParams
@@ -71,7 +73,7 @@ def _window(
         return xy - half, xy + half
     d = wq - wp
     length = np.hypot(*d.T)
-    to_line = np.abs(d[:, 0] * (xy[1] - wp[:, 1]) - d[:, 1] * (xy[0] - wp[:, 0])) / np.maximum(length, 1e-12)
+    to_line = line_distances(xy, wp, wq)
     ok = (
         (np.abs(d @ side) >= np.cos(WALL_ANGLE) * length) & (length >= params.wall_length) & (to_line <= params.in_line)
     )

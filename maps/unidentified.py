@@ -64,7 +64,7 @@ from evmap.maps.sensed import Sensed, heard_from, pose_sensed, sensed
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.maps.stripe_contour import stripe_bound
 from evmap.sources.config_model import Config
-from evmap.sources.geometry import point_segment_distances
+from evmap.sources.geometry import line_distances, point_segment_distances
 from evmap.sources.params import SonarParams, UnidentifiedParams
 from evmap.sources.rcd import TYPE_II, TYPE_IV, TYPE_NAMES, Rcds
 from evmap.sources.sim.sonar import echo_halfwidth
@@ -271,7 +271,7 @@ def behind_panes(bm: BeliefMap, config: Config) -> list[str]:
         shapely.linestrings(np.stack([a, b], axis=1)), predicate="intersects"
     )
     blocked = np.zeros(len(ids), dtype=bool)
-    blocked[path[_beyond(b[path], fp[face], fq[face]) > params.merge_radius]] = True
+    blocked[path[line_distances(b[path], fp[face], fq[face]) > params.merge_radius]] = True
     path_ids = np.array(ids)
     return sorted(set(path_ids[blocked].tolist()) - set(path_ids[~blocked].tolist()))
 
@@ -318,12 +318,6 @@ def _stripe_at(s: Sensed, xy: NDArray[np.float64], angle: float, radius: float) 
     t = s.bearing[rays[ok]]
     ends = s.origin + r[ok, None] * np.column_stack([np.cos(t), np.sin(t)])
     return bool((np.hypot(*(ends - xy).T) <= radius).any())
-
-
-def _beyond(xy: NDArray[np.float64], p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Distance (m) of each point (K, 2) from the line through its face p-q (K, 2 each)."""
-    d = q - p
-    return np.abs(d[:, 0] * (xy - p)[:, 1] - d[:, 1] * (xy - p)[:, 0]) / np.maximum(np.hypot(*d.T), 1e-12)
 
 
 def _on_lines(bm: BeliefMap, distance: float) -> list[str]:

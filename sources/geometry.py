@@ -20,6 +20,7 @@ __all__ = [
     "cast_rays",
     "cross",
     "crossings",
+    "line_distances",
     "merge_nearest",
     "near_segments",
     "nearest_first_pairs",
@@ -105,6 +106,18 @@ def _parameters(xy: NDArray[np.float64], p: NDArray[np.float64], d: NDArray[np.f
     """Parameters of the feet of the perpendiculars from ``xy`` on the lines ``p + t d``; 0 where ``d == 0``."""
     length2 = _dot(d, d)
     return _dot(xy - p, d) / np.where(length2 > 0, length2, 1.0)
+
+
+def line_distances(xy: ArrayLike, p: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
+    """Distances of points ``xy`` from the infinite lines through ``p`` and ``q`` (broadcast; from ``p`` where
+    ``p == q``, almost).
+
+    >>> line_distances([[3.0, 1.0], [-1.0, -2.0]], [0.0, 0.0], [1.0, 0.0]).tolist()
+    [1.0, 2.0]
+    """
+    xy, p, q = np.asarray(xy, dtype=float), np.asarray(p, dtype=float), np.asarray(q, dtype=float)
+    d, r = q - p, xy - p
+    return np.abs(d[..., 0] * r[..., 1] - d[..., 1] * r[..., 0]) / np.maximum(np.hypot(d[..., 0], d[..., 1]), 1e-12)
 
 
 def point_segment_distances(xy: ArrayLike, p: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
