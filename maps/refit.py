@@ -78,7 +78,9 @@ def refits(
     (:func:`end_moves`): a free end point meeting no other line's end, or a
     corner whose lines' ends still form one cluster as corners link ends, with no
     other end joining (the corner moves to the new centroid of the ends: the
-    midpoint for two lines). L then stays in place, moved onto the
+    midpoint for two lines), and none meets, as the map stands, an end not at
+    its point (one the corners' rules left out of a corner: leaving, it could
+    let that corner be found). L then stays in place, moved onto the
     merged line (by the rebuild), as a whole rebuild would find it.
     """
     store = bm.segments
@@ -113,19 +115,30 @@ def refits(
     rows: dict[str, list[int]] = {}
     for i, (m, _) in enumerate(neighbours):
         rows.setdefault(m, []).append(i)
-    while True:  # a line follows its new fit only if the lines its ends meet can follow theirs
+
+    def near_ends(fits: dict[str, NDArray[np.float64]]) -> NearEnds:
         lines = stored.copy()
         for lid, fit in fits.items():
             lines[rows.get(lid, [])] = fit
         d = lines[:, 1] - lines[:, 0]
         at = np.arange(len(end))
-        near = NearEnds(neighbours, lines[at, end], lines[at, 1 - end], d / np.hypot(*d.T)[:, None])
+        return NearEnds(neighbours, lines[at, end], lines[at, 1 - end], d / np.hypot(*d.T)[:, None])
+
+    # an end that meets, as the map stands, an end not at its point was left out of a corner by the corners'
+    # rules (drawn apart, one end of a line): leaving there could change that corner, so its line is rebuilt
+    was = {lid: np.array(g.edge(*bm.ends(lid))["fit"], dtype=float) for lid in fits}
+    for lid, move in end_moves(bm, was, near_ends({}), config).items():
+        if move is None:
+            del fits[lid]
+    while fits:  # a line follows its new fit only if the lines its ends meet can follow theirs
+        near = near_ends(fits)
         moves = end_moves(bm, fits, near, config)
         failed = {lid for lid, move in moves.items() if move is None}
         if not failed:
             return {lines_of[lid]: lid for lid in fits}, fits, near
         for lid in failed:
             del fits[lid]
+    return {}, fits, NearEnds([], np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2)))
 
 
 @dataclass(frozen=True)

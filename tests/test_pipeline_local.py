@@ -29,6 +29,7 @@ from evmap.sources.sim.world import World
 
 LOG = Path(__file__).parent / "data" / "logs" / "intel-excerpt.log.gz"
 CLUTTER_LOG = Path(__file__).parent / "data" / "logs" / "freiburg-079-excerpt.log.gz"
+FIRST_SCANS = Path(__file__).parent / "data" / "logs" / "freiburg-079-first146.log.gz"
 
 
 @pytest.fixture(scope="module", params=["patrol", "log"])
@@ -72,6 +73,15 @@ def test_lines_and_corners_of_a_cluttered_log_are_those_of_every_line():
     are: those ends are found anew with them; and the lines are the whole merge's."""
     run = run_log(CLUTTER_LOG, load_config("default"))
     assert_lines_of_the_whole_merge(run)
+    assert_corners_of_every_line(run)
+
+
+def test_a_free_end_that_leaves_a_cluster_of_ends_lets_its_corner_be_found():
+    """Freiburg 079's first 146 scans: a long line's free end lay within the corner distance of three short
+    lines' ends, which the corners' rules then left free (drawn apart); its refit moves the end away, and the
+    three ends make their corner, as a whole rebuild finds it (the refit in place left them free)."""
+    run = run_log(FIRST_SCANS, load_config("default"))
+    assert run.log.scans == 146
     assert_corners_of_every_line(run)
 
 
