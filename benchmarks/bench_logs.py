@@ -9,9 +9,10 @@ computation of ``evmap log``). Printed per log: scans, median update (extraction
 and update, ms), the ratio of the medians of the last and the first tenth of
 the log, the same two in CPU time of the process (steadier than the clock on a
 shared machine), peak resident memory (MB, of the whole process so far), total
-seconds, mean coverage, median error, the final map's lines, and the pairs of its
-believed lines (Bel(real) >= 0.5) that merging would relate (parallel within its
-tolerances: duplicates). The config is ``default``, what ``evmap log`` uses when
+seconds, mean coverage, median error, the final map's lines, the pairs of its
+believed lines (Bel(real) >= 0.5) that merging would relate as drawn (parallel within its
+tolerances: duplicates), and of them those its lines' fits relate too (the others are
+related only as their corners draw them). The config is ``default``, what ``evmap log`` uses when
 not told. Targets: median
 <= 30 ms, ratio <= 1.5, peak < 1 GB, Intel under 60 s; coverage >= 0.95 at an
 error <= 2 cm on both logs.
@@ -59,14 +60,22 @@ def bench(path: Path, limit: int | None = None) -> dict[str, float]:
         "coverage": run.log.coverage_mean,
         "error_cm": 100 * run.log.rms_error_median,
         "lines": run.map.graph.number_of_edges(),
-        "related": _related_believed(run.map, config),
+        **_related_believed(run.map, config),
     }
 
 
-def _related_believed(bm: BeliefMap, config: Config) -> int:
-    """Pairs of the map's believed lines that merging relates: parallel duplicates left in the map."""
-    ends = np.array([(line.p, line.q) for line in bm.lines(min_belief=0.5)], dtype=float).reshape(-1, 2, 2)
-    return len(related_pairs(ends[:, 0], ends[:, 1], config.merge)[0]) if len(ends) else 0
+def _related_believed(bm: BeliefMap, config: Config) -> dict[str, int]:
+    """Pairs of the map's believed lines that merging relates, as drawn (``related``: parallel duplicates left in
+    the map), and of them those related by the lines' fits too (``by_fits``; the others only as corners draw
+    them)."""
+    lines = bm.lines(min_belief=0.5)
+    if not lines:
+        return {"related": 0, "by_fits": 0}
+    drawn = np.array([(line.p, line.q) for line in lines], dtype=float)
+    fits = np.array([bm.graph.edge(*bm.ends(line.id))["fit"] for line in lines], dtype=float)
+    a, b, _ = related_pairs(drawn[:, 0], drawn[:, 1], config.merge)
+    fa, fb, _ = related_pairs(fits[:, 0], fits[:, 1], config.merge)
+    return {"related": len(a), "by_fits": len(set(zip(a.tolist(), b.tolist())) & set(zip(fa.tolist(), fb.tolist())))}
 
 
 def _timed(records: Iterable[T], times: list[tuple[float, float]]) -> Iterator[T]:
@@ -84,14 +93,14 @@ def main() -> None:
     args = parser.parse_args()
     print(
         f"{'log':32} {'scans':>6} {'ms/upd':>7} {'last/1st':>8} {'cpu ms':>7} {'last/1st':>8} {'peak MB':>8} "
-        f"{'total s':>8} {'cover':>6} {'err cm':>6} {'lines':>6} {'related':>7}"
+        f"{'total s':>8} {'cover':>6} {'err cm':>6} {'lines':>6} {'related':>7} {'by fits':>7}"
     )
     for path in args.logs:
         f = bench(path, args.limit)
         print(
             f"{path.name:32} {f['scans']:6d} {f['median_ms']:7.1f} {f['ratio']:8.2f} {f['cpu_ms']:7.1f} "
             f"{f['cpu_ratio']:8.2f} {f['peak_mb']:8.0f} {f['total_s']:8.1f} {f['coverage']:6.3f} {f['error_cm']:6.2f} "
-            f"{f['lines']:6d} {f['related']:7d}",
+            f"{f['lines']:6d} {f['related']:7d} {f['by_fits']:7d}",
             flush=True,
         )
 
