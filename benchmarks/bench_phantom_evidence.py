@@ -25,6 +25,7 @@ import argparse
 from collections import Counter
 
 import numpy as np
+from bench_phantoms import DETECTORS  # this folder's: the same two detectors
 
 from evmap.maps.app.compare_hazards import sunlight_seen_twice
 from evmap.maps.app.run import run_scenario
@@ -32,9 +33,6 @@ from evmap.maps.sensed import kept_features
 from evmap.sources.config import load_config
 from evmap.sources.sim.worldgen import generate_world, world_seed
 from evmap.sources.sim.worldgen_params import WorldGenParams
-
-DETECTORS = {"threshold": 0.0, "column_max": 1.0}
-"""Detector -> the generator's ``column_max_share``."""
 
 QUIET = {"contour_free": "clear", "sonar_forward": "silent"}
 """The contour's and the sonar's features' values that are no evidence either way."""
