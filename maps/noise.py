@@ -212,7 +212,8 @@ def _near_each(store: SegmentStore, p: NDArray[np.float64], q: NDArray[np.float6
     lo = np.minimum(p, q) - reach
     hi = np.maximum(p, q) + reach
     found = store.near((*lo.min(axis=0), *hi.max(axis=0)))
-    flo, fhi = np.minimum(store.p[found], store.q[found]), np.maximum(store.p[found], store.q[found])
+    box = store.boxes(found)
+    flo, fhi = box[:, :2], box[:, 2:]
     meets = (flo[:, None, 0] <= hi[:, 0]) & (fhi[:, None, 0] >= lo[:, 0])  # (found, ids), edges touching
     meets &= (flo[:, None, 1] <= hi[:, 1]) & (fhi[:, None, 1] >= lo[:, 1])
     return found[meets.any(axis=1)]

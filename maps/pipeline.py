@@ -57,7 +57,6 @@ from evmap.sources.relation import relation
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
-    from evmap.maps.segments import SegmentStore
 
 __all__ = ["PoseOutcome", "check_observation", "fold_observation", "touched_segments"]
 
@@ -174,7 +173,7 @@ def touched_segments(
     """
     store = bm.segments
     margin = config.merge.distance + config.merge.gap
-    boxes = [_boxes(store, new)]
+    boxes = [store.boxes(new)]
     if not space.is_empty:
         boxes.append(shapely.bounds(shapely.get_parts(space)))
     grown = np.concatenate(boxes).reshape(-1, 4) + np.array([-margin, -margin, margin, margin])
@@ -198,16 +197,11 @@ def _to_rebuild(bm: BeliefMap, changed: NDArray[np.intp], space: shapely.Geometr
     store = bm.segments
     loose = changed[~store.eliminated[changed] & (store.line[changed] == "")]
     margin = config.merge.distance + config.merge.gap
-    near = unsettled(bm, store.near(_boxes(store, loose) + np.array([-margin, -margin, margin, margin])))
+    near = unsettled(bm, store.near(store.boxes(loose) + np.array([-margin, -margin, margin, margin])))
     near = near[~store.eliminated[near]]
     others = (store.p[near], store.q[near])
     _, joins, _ = related_pairs(store.p[loose], store.q[loose], config.merge, others, mergeable=True)
     return np.unique(np.concatenate([changed, near[joins], _members_reached(bm, space, config)]))
-
-
-def _boxes(store: SegmentStore, rows: NDArray[np.intp]) -> NDArray[np.float64]:
-    """The bounding boxes (n, 4) of the stored segments ``rows``."""
-    return np.hstack([np.minimum(store.p[rows], store.q[rows]), np.maximum(store.p[rows], store.q[rows])])
 
 
 def _members_reached(bm: BeliefMap, space: shapely.Geometry, config: Config) -> NDArray[np.intp]:

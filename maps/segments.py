@@ -200,7 +200,7 @@ class SegmentStore:
         self._n += k
         ids = np.arange(rows.start, rows.stop)
         if self._index is not None:
-            for i, box in zip(ids.tolist(), _boxes(self.p[ids], self.q[ids]).tolist(), strict=True):
+            for i, box in zip(ids.tolist(), self.boxes(ids).tolist(), strict=True):
                 self._index.insert(str(i), box)
         if self._by_pose is not None:
             _file_by_pose(self._by_pose, ids, self.pose[ids])
@@ -256,6 +256,12 @@ class SegmentStore:
         if self._journal is checkpoint.journal:
             self._journal = None
 
+    def boxes(self, rows: ArrayLike) -> NDArray[np.float64]:
+        """(n, 4) bounding boxes ``(xmin, ymin, xmax, ymax)`` of the segments ``rows`` (ids)."""
+        rows = np.asarray(rows, dtype=np.intp)
+        p, q = self.p[rows], self.q[rows]
+        return np.hstack([np.minimum(p, q), np.maximum(p, q)]).reshape(-1, 4)
+
     def near(self, bounds: tuple[float, float, float, float] | NDArray[np.float64]) -> NDArray[np.intp]:
         """Ids of the segments not absorbed (nor forgotten, :meth:`forget`) whose bounding boxes meet ``bounds`` =
         (xmin, ymin, xmax, ymax), or one of the boxes of an (n, 4) array, sorted.
@@ -264,7 +270,7 @@ class SegmentStore:
         """
         if self._index is None:
             live = np.flatnonzero(self.role != "absorbed")
-            self._index = SpatialIndex.from_boxes([str(i) for i in live.tolist()], _boxes(self.p[live], self.q[live]))
+            self._index = SpatialIndex.from_boxes([str(i) for i in live.tolist()], self.boxes(live))
         keys = self._index.query(bounds)
         return np.sort(np.fromiter(map(int, keys), dtype=np.intp, count=len(keys)))
 
@@ -386,11 +392,6 @@ def _read_only(view: NDArray[Any]) -> NDArray[Any]:
     """The view, not writable (the store's columns change only through the store)."""
     view.flags.writeable = False
     return view
-
-
-def _boxes(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(N, 4) bounding boxes of segments p-q."""
-    return np.hstack([np.minimum(p, q), np.maximum(p, q)]).reshape(-1, 4)
 
 
 def _file_by_pose(by_pose: dict[int, list[NDArray[np.intp]]], ids: NDArray[np.intp], pose: NDArray[np.intp]) -> None:
