@@ -1,7 +1,7 @@
 """All-or-nothing changes of a belief map (:meth:`BeliefMap.transaction`): on an exception, the map as it was.
 
 :func:`all_or_nothing` saves what the map's objects do not log themselves (the
-segment store's rows, the open space's pieces, the ids counters and poses),
+segment store's rows, the open space's pieces, the ids counters, poses and whether corners are deferred),
 logs the objects' changes (:class:`~evmap.maps.undo_log.UndoLog`) and, if the
 block raises, undoes them and puts the rest back. Inside an outer one it does
 nothing: the outer one decides.
@@ -28,6 +28,7 @@ import copy
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+from evmap.maps.map_format import CORNERS_DEFERRED
 from evmap.maps.map_graph import MapGraph
 from evmap.maps.map_objects import MapObjects
 from evmap.maps.open_space_pieces import OpenSpacePieces
@@ -50,6 +51,7 @@ def all_or_nothing(
     pieces, union, geojson = len(space), space.made_union(), g.get("open_space")
     next_id = copy.deepcopy(g.get("next_id"))
     poses = list(g.get("poses", [])) if "poses" in g else None
+    deferred = g.get(CORNERS_DEFERRED)
     objects.undo.start()
     try:
         yield
@@ -62,6 +64,10 @@ def all_or_nothing(
             g["next_id"] = next_id
         if poses is not None:
             g["poses"] = poses
+        if deferred is None:
+            g.pop(CORNERS_DEFERRED, None)
+        else:
+            g[CORNERS_DEFERRED] = deferred
         raise
     finally:
         objects.undo.stop()

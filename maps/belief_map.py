@@ -13,7 +13,7 @@ edges are lines (``kind: "line"``). Every node and edge carries
 The graph's attributes are ``schema_version``, ``frame`` (element names),
 ``rule`` (the combination rule of :meth:`BeliefMap.fold`), ``open_space`` (the
 sonar open space as GeoJSON-like MultiPolygon coordinates), and for maps that
-fold observations ``config``, ``poses`` and ``next_id``.
+fold observations ``config``, ``poses``, ``next_id`` and ``corners_deferred``.
 
 :class:`BeliefMap` is the data: the graph, its mutation and its ids. What it
 keeps beside the graph is kept by objects of their own modules: the points and
@@ -41,11 +41,11 @@ import shapely
 from numpy.typing import NDArray
 
 from evidential import RULES, Frame, MassFunction
-from evmap.maps import map_file, map_json, occupancy, planner
+from evmap.maps import map_file, map_json, occupancy, planner, rebuild
 from evmap.maps.all_or_nothing import all_or_nothing
 from evmap.maps.free_space import free_space, surface_points
 from evmap.maps.map_checks import check_extras
-from evmap.maps.map_format import GRAPH_KEYS, ID_PREFIXES, SCHEMA_VERSION, MapParts
+from evmap.maps.map_format import CORNERS_DEFERRED, GRAPH_KEYS, ID_PREFIXES, SCHEMA_VERSION, MapParts
 from evmap.maps.map_graph import MapGraph
 from evmap.maps.map_objects import MapObjects
 from evmap.maps.observation import Observation
@@ -142,9 +142,7 @@ class BeliefMap:
     @property
     def graph(self) -> MapGraph:
         """The points (nodes by id) and lines (edges) as dicts; read them, change the map by its methods.
-
-        ``bm.graph.to_networkx()`` is a :class:`networkx.Graph` of it for networkx's algorithms.
-        """
+        ``bm.graph.to_networkx()`` is a :class:`networkx.Graph` of it for networkx's algorithms."""
         return self._graph
 
     @property
@@ -154,10 +152,7 @@ class BeliefMap:
 
     def changed_since(self, version: int) -> set[str] | None:
         """The ids of the objects added, changed or removed since ``version``; None if the map no longer knows.
-
-        What is derived from the map (the planner's obstacle trees) catches up
-        with these few objects instead of being made anew.
-        """
+        What is derived from the map (the planner's obstacle trees) catches up with them, not made anew."""
         return self._objects.journal.since(version)
 
     @property
@@ -166,11 +161,30 @@ class BeliefMap:
         return tuple(self._graph.graph.get("poses", ()))
 
     @property
-    def config(self) -> Config:
-        """The config the map folds observations with (stored in the graph as ``config``).
+    def corners_deferred(self) -> bool:
+        """Whether updates without sonar left line ends free that :meth:`join_corners` has not joined since
+        (:mod:`evmap.maps.pipeline`; ``graph.corners_deferred``); the update that starts it sets it."""
+        return self._graph.graph.get(CORNERS_DEFERRED, False)
 
-        Maps made by :func:`new_map` (and so by ``evmap run``) carry one.
-        """
+    @corners_deferred.setter
+    def corners_deferred(self, deferred: bool) -> None:
+        self._graph.graph.pop(CORNERS_DEFERRED, None)
+        self._graph.graph.update({CORNERS_DEFERRED: True} if deferred else {})
+        self._objects.changed()
+
+    def join_corners(self) -> set[str]:
+        """If :attr:`corners_deferred`, join the line ends into corners over the whole map, all or nothing
+        (:func:`evmap.maps.rebuild.join_corners`); the ids of the lines (none if nothing was deferred)."""
+        if not self.corners_deferred:
+            return set()
+        with map_json.gc_paused(), self.transaction():
+            self.corners_deferred = False
+            return rebuild.join_corners(self, self.config)
+
+    @property
+    def config(self) -> Config:
+        """The config the map folds observations with (stored in the graph as ``config``); maps made by
+        :func:`new_map` (and so by ``evmap run``) carry one."""
         if self._config is None:
             if "config" not in self._graph.graph:
                 raise ValueError("this map carries no config: make maps to update with evmap.maps.new_map(config)")
@@ -217,10 +231,9 @@ class BeliefMap:
     def open_space(self) -> shapely.MultiPolygon:
         """The sonar open space, a (possibly empty) shapely MultiPolygon: the union of every observation's.
 
-        Set it with a Polygon, a MultiPolygon, an empty geometry or None (that
-        replaces it), or add to it with :meth:`add_open_space`; the union is
-        made when it is read (:class:`~evmap.maps.open_space_pieces.OpenSpacePieces`), and
-        :meth:`open_space_near` reads pieces near a box only.
+        Set it with a Polygon, a MultiPolygon, an empty geometry or None (that replaces it), or add to it with
+        :meth:`add_open_space`; the union is made when it is read (:class:`~evmap.maps.open_space_pieces.OpenSpacePieces`),
+        and :meth:`open_space_near` reads pieces near a box only.
         """
         return self._space.union()
 
@@ -242,12 +255,9 @@ class BeliefMap:
         """:meth:`open_space_near` as a collection of polygons, maybe overlapping, not united (cheaper)."""
         return shapely.GeometryCollection(self._space.parts_near(bounds))
 
-    # ----------------------------------------------------------------- spatial index
-
     def near(self, bounds: Bounds | NDArray[np.float64], what: str = "all") -> set[str]:
-        """Ids of the ``"points"``, ``"lines"``, ``"obstacles"`` (lines and unidentified points) or ``"all"``
-        whose bounding boxes meet the box ``bounds`` (xmin, ymin, xmax, ymax), or one of an (n, 4) array's
-        (:mod:`evmap.maps.map_index`)."""
+        """Ids of the ``"points"``, ``"lines"``, ``"obstacles"`` (lines and unidentified points) or ``"all"`` whose
+        boxes meet the box ``bounds`` (xmin, ymin, xmax, ymax), or one of an (n, 4) array's (:mod:`evmap.maps.map_index`)."""
         return self._objects.index.near(bounds, what)
 
     def extent(self) -> Bounds:
@@ -300,16 +310,12 @@ class BeliefMap:
         """Record that the observation of ``pose_index`` is folded into the map (once per pose)."""
         self._objects.add_pose(pose_index)
 
-    # ----------------------------------------------------------------- all or nothing
-
     @contextmanager
     def transaction(self) -> Iterator[None]:
         """Changes that happen all or not at all (:func:`evmap.maps.all_or_nothing.all_or_nothing`): on any
         exception inside the block the map is put back as it was (its objects, their attributes and histories,
-        segments, open space, ids and poses), then it is raised.
-
-        :meth:`update` runs in one. Objects put back may come after the others in iteration order.
-        """
+        segments, open space, ids, poses), then it is raised. :meth:`update` runs in one. Objects put back may
+        come after the others in iteration order."""
         with all_or_nothing(self._objects, self._space, self.segments, self._graph):
             yield
 
@@ -348,13 +354,9 @@ class BeliefMap:
         min_belief: float = 0.5,
         unknown: str = "blocked",
     ) -> bool:
-        """:func:`evmap.maps.planner.is_segment_clear`: no obstacle near ``a``-``b``; unknown space, outside
-        the occupancy grid's free space (:func:`evmap.maps.free_space.free_space`), blocked by default, and then
-        ``clearance`` kept from every surface the stripe measured too (:func:`evmap.maps.free_space.surface_points`).
-
-        That free space is made once per version of the map: the first blocked query after a change costs what
-        the occupancy grid does (seconds on the map of a whole log; README, planner), the next ones a fraction
-        of a millisecond."""
+        """:func:`evmap.maps.planner.is_segment_clear`: no obstacle near ``a``-``b``; unknown space, outside the
+        occupancy grid's free space (:func:`evmap.maps.free_space.free_space`, made once per version of the map),
+        blocked by default, and then ``clearance`` kept from every surface the stripe measured too."""
         free, surfaces = (free_space(self), surface_points(self)) if unknown == "blocked" else (None, None)
         return planner.is_segment_clear(self, a, b, clearance, min_belief, unknown, free, surfaces)
 

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
 
 from evmap.maps.merging import check_segments
 from evmap.sources.clusters import close_pairs, component_labels
@@ -84,7 +85,8 @@ def find_corners(
     ----------
     p, q : (N, 2) end points of the lines (metres).
     params : the tolerances; ``CornerParams()`` (5 cm, 10 deg) if omitted.
-    viewpoint : (x, y) of the robot, for the corners' shapes; None for "unknown".
+    viewpoint : (x, y) of the robot, for the corners' shapes, or (M, 2) robot positions, each corner seen
+        from the nearest of them; None for "unknown".
 
     Returns
     -------
@@ -208,8 +210,10 @@ def _shapes(
     if viewpoint is None:
         return np.full(k, "unknown")
     v = np.asarray(viewpoint, dtype=float)
-    if v.shape != (2,) or not np.isfinite(v).all():
-        raise ValueError(f"viewpoint must be a finite (x, y) pair: got {viewpoint!r}")
+    if v.shape[-1:] != (2,) or v.ndim > 2 or not len(v) or not np.isfinite(v).all():
+        raise ValueError(f"viewpoint must be a finite (x, y) pair or (M, 2) of them: got {viewpoint!r}")
+    if v.ndim == 2:  # each corner seen from the nearest
+        v = v[cKDTree(v).query(xy)[1]] if k else v[:0]
     w = v - xy
     out = ends[member ^ 1] - xy[corner]  # each line's other end: its outward direction
     # Angle of each line counter-clockwise from the viewpoint's direction, in [0, 2 pi).

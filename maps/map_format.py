@@ -17,6 +17,7 @@ from evmap.sources.loading import InputError
 
 __all__ = [
     "CHECKSUM_KEY",
+    "CORNERS_DEFERRED",
     "GRAPH_KEYS",
     "ID_PREFIXES",
     "LINE_KEYS",
@@ -46,6 +47,10 @@ LINE_KIND = "line"
 
 GRAPH_KEYS = ("schema_version", "frame", "rule", "open_space", "segments")
 """Graph attributes the map itself keeps (no extra attribute may take these names)."""
+
+CORNERS_DEFERRED = "corners_deferred"
+"""The graph attribute, ``true`` where present, of a map whose updates without sonar left line ends free that
+:meth:`~evmap.maps.belief_map.BeliefMap.join_corners` has not joined into corners since."""
 
 POINT_KEYS = ("id", "xy", "kind", "mass", "history")
 """Attributes of a point the map itself keeps."""

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from evidential import RULES, Frame, MassFunction
 from evmap.maps import map_json
 from evmap.maps.map_format import (
+    CORNERS_DEFERRED,
     GRAPH_KEYS,
     ID_PREFIXES,
     LINE_KIND,
@@ -133,7 +134,8 @@ class MapReader:
         return MapParts(frame, rule, extras, segments, open_space, [], [], [])
 
     def check_extras(self, extras: dict[str, Any], frame: Frame, rule: str) -> None:
-        """The pipeline's graph attributes, where present: its config (its frame and rule the map's), ids, poses."""
+        """The pipeline's graph attributes, where present: its config (its frame and rule the map's), ids, poses,
+        deferred corners."""
         if "config" in extras:
             try:
                 config = config_from_data(extras["config"], f"{self.name}: graph.config")
@@ -167,6 +169,9 @@ class MapReader:
                 poses
             ):
                 raise self.fail("graph.poses", f"must be distinct pose indexes >= 0, got {map_json.shown(poses)}")
+        if CORNERS_DEFERRED in extras and extras[CORNERS_DEFERRED] is not True:
+            shown = map_json.shown(extras[CORNERS_DEFERRED])
+            raise self.fail(f"graph.{CORNERS_DEFERRED}", f"must be true where present, got {shown}")
 
     def check_segments(self, store: SegmentStore, rule: str) -> None:
         """The segments' columns hold what the pipeline writes: finite ends, known values, mass functions."""

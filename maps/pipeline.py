@@ -16,7 +16,14 @@
 
 An observation without a sonar scan (a robot log with a laser only) skips the
 sonar stages 1 and 5-7: no open space, nothing simulated, matched, reinforced
-or unidentified; its outcome says so (``sonar`` None).
+or unidentified; its outcome says so (``sonar`` None). No stage of such an
+update reads the corners, so on a map that starts with one (no lines yet), the
+updates without sonar leave the line ends they touch free
+(:attr:`BeliefMap.corners_deferred <evmap.maps.belief_map.BeliefMap.corners_deferred>`)
+until the next update with sonar, or :meth:`BeliefMap.join_corners
+<evmap.maps.belief_map.BeliefMap.join_corners>` (``evmap log`` calls it after the
+last scan), joins them into corners over the whole map: corners are found once,
+not at every scan, and they are the whole map's.
 
 Only the part of the map near the new observation is rebuilt, so an update
 costs what the observation touches: the lines of the segments whose verdict
@@ -26,8 +33,9 @@ Rebuilding the whole map from its stored segments gives the same lines and
 corners on the simulated tours and the log excerpts the tests run; over a long
 log a few related lines that no later update came near stay apart (they are
 among the related pairs ``benchmarks/bench_logs.py`` counts), and the corners
-are those of the lines (on Freiburg 079's first 1,000 scans, after every update
-but 6, all 458 at the end).
+are those of the lines (Freiburg 079's first 1,000 scans with corners found at
+every update, as a log with sonar has them: after every update but 6, all 458
+at the end).
 """
 
 from __future__ import annotations
@@ -126,8 +134,15 @@ def _fold(bm: BeliefMap, obs: Observation, config: Config) -> PoseOutcome:
     touched = touched_segments(bm, new, space, config, pose_sensed(bm, obs.pose_index))
     changed = judge(bm, touched, config)
 
-    # 3.-4. merge and find corners near the change
-    touched_lines = rebuild(bm, _to_rebuild(bm, np.union1d(new, changed), space, config), config, pose[:2])
+    # 3.-4. merge and find corners near the change; without sonar, on a map that has no lines yet or defers its
+    # corners already, leave them to join_corners (see the module doc)
+    defer = obs.sonar is None and (bm.corners_deferred or next(bm.line_ids(), None) is None)
+    if defer and not bm.corners_deferred:
+        bm.corners_deferred = True
+    elif not defer:
+        bm.join_corners()  # those a map deferred, before the stages that read them
+    touched = _to_rebuild(bm, np.union1d(new, changed), space, config)
+    touched_lines = rebuild(bm, touched, config, pose[:2], join=not defer)
 
     # 5.-7. simulated sonar, matching, reinforcement, unidentified objects
     if obs.sonar is None:

@@ -27,38 +27,25 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import shapely
 from numpy.typing import NDArray
 
 from evidential import MassFunction
 from evmap.maps.corners import find_corners
-from evmap.maps.map_json import MassCodec
+from evmap.maps.merged_evidence import MergedEvidence, merged_evidence
 from evmap.maps.merging import Merged, merge_segments, related_pairs
-from evmap.maps.noise import NoiseEvidence, noise_evidence
 from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, surface_points_near, unmoved
 from evmap.maps.running_mass import NOISE_STAGE, carried, with_running
-from evmap.maps.segments import CONSOLIDATE_POSES, SegmentStore
-from evmap.maps.sensed import kept_features
+from evmap.maps.segments import CONSOLIDATE_POSES
+from evmap.maps.sensed import sensed
 from evmap.sources.config_model import Config
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["rebuild", "refresh_points"]
+__all__ = ["join_corners", "rebuild", "refresh_points"]
 
 Removed = list[tuple[tuple[float, float], list[dict[str, Any]], MassFunction | None]]
 """Removed corners: position, history and running mass of each."""
-
-
-@dataclass(frozen=True, eq=False)
-class _Evidence:
-    """The noise-elimination evidence of the merged lines: the verdicts, their fused masses as mass functions
-    and as ``{FOCAL: float}`` (:meth:`MassFunction.to_dict`, encoded in bulk), and how many poses saw each line."""
-
-    base: NoiseEvidence
-    masses: list[MassFunction]
-    dicts: list[dict[str, float]]
-    seen: NDArray[np.intp]
 
 
 @dataclass
@@ -71,8 +58,11 @@ class _Line:
     running: MassFunction | None  # the running mass of its evidence records
 
 
-def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint: NDArray[np.float64]) -> set[str]:
-    """Re-merge the surviving segments near the change and re-find the corners there.
+def rebuild(
+    bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint: NDArray[np.float64], *, join: bool
+) -> set[str]:
+    """Re-merge the surviving segments near the change and, if ``join``, re-find the corners there (their shapes
+    as seen from ``viewpoint``); else the ends the rebuild touches are left free, for :func:`join_corners`.
 
     ``touched`` are rows of the map's segment store just judged by noise
     elimination. Returns the ids of every line (re)attached, refitted in place, or left in place with new
@@ -81,7 +71,7 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
     store = bm.segments
     g = bm.graph
     dissolved, pool, merged = _merged_pool(bm, touched, config)
-    evidence = _merged_evidence(bm, pool, merged, config)
+    evidence = merged_evidence(bm, pool, merged, config)
 
     stays = unmoved(bm, pool, merged, dissolved)
     new_evidence: set[str] = set()  # the lines that stay whose evidence changed
@@ -89,7 +79,7 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
         fit = np.array(g.edge(*dissolved.pop(lid))["fit"], dtype=float)
         if _refit_in_place(bm, lid, pool[merged.groups[k]], fit, (merged, k), evidence, config):
             new_evidence.add(lid)
-    refitted, fits, near = refits(bm, pool, merged, dissolved, config)
+    refitted, fits, near = refits(bm, pool, merged, dissolved, config, join=join)
     moves = [move for found in end_moves(bm, fits, near, config).values() for move in found or ()]
     for k, lid in refitted.items():
         _refit_in_place(bm, lid, pool[merged.groups[k]], fits[lid], (merged, k), evidence, config)
@@ -98,12 +88,28 @@ def rebuild(bm: BeliefMap, touched: NDArray[np.intp], config: Config, viewpoint:
         if bm.graph.nodes[node]["xy"] != xy:
             bm.set_attrs(node, xy=xy)
     fresh = [k for k in range(len(merged.groups)) if k not in refitted and k not in stays]
-    affected = _affected_points(bm, dissolved, merged, fresh, config)
+    if join:
+        affected = _affected_points(bm, dissolved, merged, fresh, config)
+    else:  # no corners found: the dissolved lines' ends are all the points that change
+        affected = {n for points in dissolved.values() for n in points}
     histories = {lid: (g.edge(*ends)["history"], bm.running_mass(lid)) for lid, ends in dissolved.items()}
     kept, removed = _detach(bm, dissolved, affected)
     lines = kept + _new_lines(bm, pool, merged, fresh, evidence, histories, config)
     store.write(touched[store.eliminated[touched]], line="")
-    return _attach(bm, lines, removed, viewpoint, config) | set(refitted.values()) | new_evidence
+    return _attach(bm, lines, removed, viewpoint, config, join=join) | set(refitted.values()) | new_evidence
+
+
+def join_corners(bm: BeliefMap, config: Config) -> set[str]:
+    """Join the ends of every line of the map into corners, as :func:`~evmap.maps.corners.find_corners` finds
+    them over the whole map's line fits (each corner's shape as seen from the nearest pose that sensed, or
+    ``unknown`` if the map kept none); the lines keep their ids and evidence, and a corner the sonar records
+    of the removed corners within the corner distance. Returns the ids of the lines."""
+    points = {n for lid in bm.line_ids() for n in bm.ends(lid)}
+    kept, removed = _detach(bm, {}, points)
+    origins = [s.origin for s in sensed(bm)]
+    lines = _attach(bm, kept, removed, np.array(origins) if origins else None, config, join=True)
+    refresh_points(bm, lines, config)
+    return lines
 
 
 def _merged_pool(
@@ -229,7 +235,7 @@ def _refit_in_place(
     members: NDArray[np.intp],
     fit: NDArray[np.float64],
     line: tuple[Merged, int],
-    evidence: _Evidence,
+    evidence: MergedEvidence,
     config: Config,
 ) -> bool:
     """The line ``lid`` takes the merged line's members, support, noise-elimination evidence and ``fit``
@@ -286,32 +292,13 @@ def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[
     return kept, removed
 
 
-def _merged_evidence(bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, config: Config) -> _Evidence:
-    """The noise-elimination evidence of the merged lines, from their merged length and relation (other
-    features from their longest member), and how many poses saw each."""
-    store = bm.segments
-    length = np.hypot(*(store.q[pool] - store.p[pool]).T)
-    order = np.lexsort((np.arange(len(pool)), -length, merged.line_of))  # by line, the longest member first
-    first = np.flatnonzero(np.diff(merged.line_of[order], prepend=-1))
-    longest = pool[order[first]]
-    features = {name: column[longest] for name, column in store.features.items()}
-    seen = _poses_seen(store, pool, merged.line_of, len(merged.groups))
-    features["lsl_other_poses"] = seen - 1
-    features |= kept_features(bm, longest)
-    ends = np.concatenate([store.p[pool], store.q[pool]])
-    space = bm.open_space_parts_near((*ends.min(axis=0), *ends.max(axis=0))) if len(pool) else shapely.MultiPolygon()
-    base = noise_evidence(merged.p, merged.q, space, config, features)
-    masses = MassFunction.from_rows(bm.frame, range(1 << len(bm.frame)), base.fused, open_world=True)  # in bulk
-    return _Evidence(base, masses, MassCodec(bm.frame).encode(masses), seen)
-
-
 def _merged_line(
     bm: BeliefMap,
     lid: str,
     members: NDArray[np.intp],
     merged: Merged,
     k: int,
-    evidence: _Evidence,
+    evidence: MergedEvidence,
 ) -> tuple[dict[str, Any], MassFunction, NDArray[np.intp]]:
     """The noise-elimination record of the merged line k (rows ``members``) as the line ``lid``, its mass,
     and its members: the rows, or their consolidated support if more than :data:`CONSOLIDATE_POSES` poses
@@ -339,7 +326,7 @@ def _new_lines(
     pool: NDArray[np.intp],
     merged: Merged,
     fresh: list[int],
-    evidence: _Evidence,
+    evidence: MergedEvidence,
     histories: dict[str, tuple[list[dict[str, Any]], MassFunction | None]],
     config: Config,
 ) -> list[_Line]:
@@ -365,16 +352,23 @@ def _new_lines(
 
 
 def _attach(
-    bm: BeliefMap, lines: list[_Line], removed: Removed, viewpoint: NDArray[np.float64], config: Config
+    bm: BeliefMap,
+    lines: list[_Line],
+    removed: Removed,
+    viewpoint: NDArray[np.float64] | None,
+    config: Config,
+    *,
+    join: bool,
 ) -> set[str]:
-    """Add the lines, their ends meeting at corners (a corner keeps the sonar records of a removed
-    corner within the corner distance) or free; return their ids."""
+    """Add the lines, their ends meeting at corners if ``join`` (a corner keeps the sonar records of a removed
+    corner within the corner distance; its shape as seen from ``viewpoint``, :func:`find_corners`) or free;
+    return their ids."""
     g = bm.graph
     fits = np.array([line.fit for line in lines]).reshape(-1, 2, 2)
-    corners = find_corners(fits[:, 0], fits[:, 1], config.corners, viewpoint)
+    corners = find_corners(fits[:, 0], fits[:, 1], config.corners, viewpoint) if join else None
     end_point = {(i, e): line.fixed[e] for i, line in enumerate(lines) for e in (0, 1) if line.fixed[e] is not None}
     removed_xy = np.array([pxy for pxy, _, _ in removed], dtype=float).reshape(-1, 2)
-    for k, ends in enumerate(corners.ends):
+    for k, ends in enumerate(corners.ends if corners else ()):
         pairs = [tuple(pair) for pair in ends.tolist()]
         if any(pair in end_point for pair in pairs):
             continue  # an end already on a point outside the change stays there
@@ -405,16 +399,3 @@ def _attach(
         bm.keep_running(data["id"], line.running)
         added.add(data["id"])
     return added
-
-
-def _poses_seen(store: SegmentStore, pool: NDArray[np.intp], line_of: NDArray[np.intp], lines: int) -> NDArray[np.intp]:
-    """How many poses saw each of the ``lines`` merged lines (``line_of`` each row of ``pool``): the distinct
-    poses of its raw rows, and the poses behind each of its supports.
-
-    A support's poses are counted apart from the raw segments' (after a
-    consolidation, the poses that saw a line again are new ones).
-    """
-    support = store.role[pool] == "support"
-    raw = np.unique(np.column_stack([line_of[~support], store.pose[pool[~support]]]), axis=0)
-    behind = np.bincount(line_of[support], weights=store.seen[pool[support]], minlength=lines)
-    return np.bincount(raw[:, 0], minlength=lines) + behind.astype(np.intp)

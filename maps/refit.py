@@ -65,7 +65,13 @@ def unmoved(
 
 
 def refits(
-    bm: BeliefMap, pool: NDArray[np.intp], merged: Merged, dissolved: dict[str, tuple[str, str]], config: Config
+    bm: BeliefMap,
+    pool: NDArray[np.intp],
+    merged: Merged,
+    dissolved: dict[str, tuple[str, str]],
+    config: Config,
+    *,
+    join: bool,
 ) -> tuple[dict[int, str], dict[str, NDArray[np.float64]], NearEnds]:
     """The merged lines that only refit a line of the map (merged line -> the line it refits), the new
     fit of each such line (its ends in the order of the line's end points), and the line ends near them
@@ -81,7 +87,8 @@ def refits(
     midpoint for two lines), and none meets, as the map stands, an end not at
     its point (one the corners' rules left out of a corner: leaving, it could
     let that corner be found). L then stays in place, moved onto the
-    merged line (by the rebuild), as a whole rebuild would find it.
+    merged line (by the rebuild), as a whole rebuild would find it. A rebuild
+    that does not ``join`` ends into corners refits the lines with two free ends.
     """
     store = bm.segments
     g = bm.graph
@@ -105,8 +112,10 @@ def refits(
         cos = abs(u[0] * v[0] + u[1] * v[1]) / (math.hypot(*u) * math.hypot(*v))
         if max(math.dist(p, a), math.dist(q, b)) <= move and cos >= cos_tol:
             fits[lid], lines_of[lid] = np.array([p, q]), k
-    if not fits:
-        return {}, fits, NearEnds([], np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2)))
+    if not join:  # no ends meet: a line with two free ends follows its new fit
+        fits = {lid: fit for lid, fit in fits.items() if all(g.degree(n) == 1 for n in bm.ends(lid))}
+    if not fits or not join:
+        return {lines_of[lid]: lid for lid in fits}, fits, _NO_ENDS
     ends = np.concatenate(list(fits.values()))
     points = surface_points_near(bm, ends, 3 * config.corners.distance + move)
     neighbours = [(d["id"], n) for n in points for d in g.adj[n].values()]
@@ -138,7 +147,7 @@ def refits(
             return {lines_of[lid]: lid for lid in fits}, fits, near
         for lid in failed:
             del fits[lid]
-    return {}, fits, NearEnds([], np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2)))
+    return {}, fits, _NO_ENDS
 
 
 @dataclass(frozen=True)
@@ -150,6 +159,9 @@ class NearEnds:
     ends: NDArray[np.float64]
     far: NDArray[np.float64]
     u: NDArray[np.float64]
+
+
+_NO_ENDS = NearEnds([], np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2)))
 
 
 def end_moves(

@@ -57,6 +57,22 @@ def test_a_square_seen_from_outside():
     assert shapes == {(0, 0): "convex", (1, 0): "convex", (0, 1): "convex", (1, 1): "concave"}
 
 
+def test_each_corner_is_seen_from_the_nearest_of_many_viewpoints():
+    """Robots in the room and beside each corner outside it: each corner has the shape its nearest robot sees."""
+    p, q = _square_room()
+    robots = np.array([[0.4, 0.6], [-0.5, -0.5], [1.5, 1.5]])  # inside; outside (0, 0); outside (1, 1)
+    c = find_corners(p, q, viewpoint=robots)
+    shapes = dict(zip(map(tuple, np.round(c.xy).tolist()), c.shape.tolist()))
+    assert shapes == {(0, 0): "convex", (1, 0): "concave", (1, 1): "convex", (0, 1): "concave"}
+    for k, xy in enumerate(c.xy):
+        nearest = robots[np.argmin(np.hypot(*(robots - xy).T))]
+        assert find_corners(p, q, viewpoint=nearest).shape[k] == c.shape[k]
+    with pytest.raises(ValueError, match="viewpoint"):
+        find_corners(p, q, viewpoint=np.zeros((0, 2)))
+    with pytest.raises(ValueError, match="viewpoint"):
+        find_corners(p, q, viewpoint=[[0, 0], [np.nan, 1]])
+
+
 def test_a_pillar_is_convex_from_all_round_and_concave_from_nowhere():
     p, q = _square_room()
     square = find_corners(p, q)

@@ -46,6 +46,7 @@ def rewrite(saved, tmp_path, change) -> os.PathLike:
         (lambda d: d["graph"].update(next_id="x"), r"graph.next_id: must map id prefixes"),
         (lambda d: d["graph"].update(next_id={"L": 0}), r"graph.next_id"),
         (lambda d: d["graph"].update(poses=[0, 0]), r"graph.poses: must be distinct"),
+        (lambda d: d["graph"].update(corners_deferred="yes"), r"graph.corners_deferred: must be true where present"),
         (lambda d: d["nodes"][0].update(mass={"": 0.5, "real": 0.5}), r"nodes\[0\].mass: .*no mass on the empty set"),
         (lambda d: d["graph"]["segments"]["mass"][1].update({"": 0.1, "noise": 0.9}), r"segments.mass\[1\]"),
         (lambda d: d["graph"]["segments"]["p"].__setitem__(2, [None, 0.0]), r"segments"),

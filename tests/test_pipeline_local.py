@@ -2,6 +2,7 @@
 
 import dataclasses
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -11,7 +12,7 @@ from evmap import configs
 from evmap.maps import pipeline
 from evmap.maps.app.log_run import run_log
 from evmap.maps.app.run import run_scenario
-from evmap.maps.belief_map import new_map
+from evmap.maps.belief_map import BeliefMap, new_map
 from evmap.maps.corners import find_corners
 from evmap.maps.log_observation import observation_from_log
 from evmap.maps.merging import merge_segments
@@ -21,6 +22,7 @@ from evmap.maps.pipeline import touched_segments
 from evmap.maps.rebuild import rebuild
 from evmap.maps.sensed import pose_sensed, remember
 from evmap.sources.config import load_config
+from evmap.sources.logs import open_log
 from evmap.sources.logs.scan import LaserScan, LogRecord
 from evmap.sources.readings import LslSegments
 from evmap.sources.relation import relation
@@ -32,12 +34,30 @@ CLUTTER_LOG = Path(__file__).parent / "data" / "logs" / "freiburg-079-excerpt.lo
 FIRST_SCANS = Path(__file__).parent / "data" / "logs" / "freiburg-079-first146.log.gz"
 
 
-@pytest.fixture(scope="module", params=["patrol", "log"])
+@pytest.fixture(scope="module", params=["patrol", "log", "log, corners kept"])
 def patrol(request):
-    """A simulated patrol, and a real log (corners of three lines and more, lines refitted at them)."""
+    """A simulated patrol, and a real log (corners of three lines and more, lines refitted at them), its corners
+    joined after the last scan and kept at every update."""
     if request.param == "log":
         return run_log(LOG, load_config("default"))
+    if request.param == "log, corners kept":
+        return corners_kept_run(LOG)
     return patrol_run()
+
+
+def corners_kept_run(path):
+    """The log folded scan by scan into a map whose corners are joined after the first scan, so that every later
+    update keeps them up to date (as on a map with sonar, whose stages read them): the local rebuild of corners
+    on a real log's clutter."""
+    config = load_config("default")
+    bm = new_map(config)
+    for k, record in enumerate(open_log(path)):
+        bm.update(observation_from_log(record, config, k))
+        if k == 0:
+            assert bm.corners_deferred and not bm.corners()
+            bm.join_corners()
+        assert not bm.corners_deferred
+    return SimpleNamespace(map=bm, config=config)
 
 
 def patrol_run():
@@ -68,21 +88,64 @@ def test_corners_are_those_of_every_line(patrol):
     assert_corners_of_every_line(patrol)
 
 
-def test_lines_and_corners_of_a_cluttered_log_are_those_of_every_line():
+@pytest.mark.parametrize("kept", [False, True], ids=["joined at the end", "kept"])
+def test_lines_and_corners_of_a_cluttered_log_are_those_of_every_line(kept):
     """Corners of many short lines, whose ends come within the corner distance of ends of lines left as they
     are: those ends are found anew with them; and the lines are the whole merge's."""
-    run = run_log(CLUTTER_LOG, load_config("default"))
+    run = corners_kept_run(CLUTTER_LOG) if kept else run_log(CLUTTER_LOG, load_config("default"))
     assert_lines_of_the_whole_merge(run)
     assert_corners_of_every_line(run)
 
 
 def test_a_free_end_that_leaves_a_cluster_of_ends_lets_its_corner_be_found():
-    """Freiburg 079's first 146 scans: a long line's free end lay within the corner distance of three short
-    lines' ends, which the corners' rules then left free (drawn apart); its refit moves the end away, and the
-    three ends make their corner, as a whole rebuild finds it (the refit in place left them free)."""
-    run = run_log(FIRST_SCANS, load_config("default"))
-    assert run.log.scans == 146
+    """Freiburg 079's first 146 scans, corners kept at every update: a long line's free end lay within the
+    corner distance of three short lines' ends, which the corners' rules then left free (drawn apart); its
+    refit moves the end away, and the three ends make their corner, as a whole rebuild finds it (the refit in
+    place left them free)."""
+    run = corners_kept_run(FIRST_SCANS)
+    assert len(run.map.poses) == 146
     assert_corners_of_every_line(run)
+
+
+def test_a_log_without_sonar_leaves_line_ends_free_until_its_corners_are_joined(tmp_path):
+    """No stage of an update without sonar reads corners: the map's ends stay free while the log is folded,
+    its lines those of every update; joined at the end, the corners are the whole map's, the lines the same."""
+    config = load_config("default")
+    bm = new_map(config)
+    for k, record in enumerate(open_log(CLUTTER_LOG)):
+        bm.update(observation_from_log(record, config, k))
+        assert bm.corners_deferred and not bm.corners(min_belief=0)
+        assert all(bm.graph.degree(n) == 1 for n in bm.graph.nodes)
+    fits = {lid: bm.graph.edge(*bm.ends(lid))["fit"] for lid in bm.line_ids()}
+    run = SimpleNamespace(map=bm, config=config)
+    assert_lines_of_the_whole_merge(run)
+    bm.save(tmp_path / "map.json")
+    loaded = BeliefMap.load(tmp_path / "map.json")
+    assert loaded.corners_deferred and loaded.join_corners() == set(fits)
+    joined = bm.join_corners()
+    assert joined == set(fits) and not bm.corners_deferred and bm.join_corners() == set()
+    assert {lid: bm.graph.edge(*bm.ends(lid))["fit"] for lid in bm.line_ids()} == fits
+    assert_corners_of_every_line(run)
+    assert len(bm.corners(min_belief=0)) > 50
+    assert loaded.to_data()["nodes"] == bm.to_data()["nodes"]
+    kept = corners_kept_run(CLUTTER_LOG).map
+    assert sorted(map(tuple, fits.values())) == sorted(tuple(d["fit"]) for _, _, d in kept.graph.edges())
+
+
+def test_the_first_update_with_sonar_joins_the_corners_the_map_deferred():
+    """A map that began without sonar (the corridor's stripe alone) joins its corners at its first update with
+    sonar, whose simulated sonar reads them: then every update keeps them."""
+    config = load_config("default")
+    world = World(default_scenario())
+    first = observe(world, 0, config)
+    bm = new_map(config)
+    bm.update(dataclasses.replace(first, sonar=None, robot_pose=first.pose))
+    assert bm.corners_deferred and not bm.corners(min_belief=0)
+    bm.update(dataclasses.replace(first, pose_index=1))
+    assert not bm.corners_deferred and bm.corners(min_belief=0)
+    assert_corners_of_every_line(SimpleNamespace(map=bm, config=config))
+    bm.update(dataclasses.replace(first, pose_index=2, sonar=None, robot_pose=first.pose))
+    assert not bm.corners_deferred and bm.corners(min_belief=0)
 
 
 def assert_corners_of_every_line(run):
@@ -149,8 +212,9 @@ def test_lines_a_scan_comes_near_but_leaves_as_they_are_stay_as_they_are():
     none of them: same ids, same points, the corner the whole map's."""
     bm = new_map(load_config("default"))
     bm.update(laser_only(0, [[0, 0], [0, 0], [0.02, 0.02]], [[2, 0], [0, 2], [0.035, 0.035]]))
+    bm.join_corners()  # kept from now on
     before = sorted((d["id"], u, v, d["fit"]) for u, v, d in bm.graph.edges())
-    assert [(lid, u, v) for lid, u, v, _ in before] == [("L1", "C1", "E1"), ("L2", "C1", "E2"), ("L3", "C1", "E3")]
+    assert [(lid, u, v) for lid, u, v, _ in before] == [("L1", "C1", "E7"), ("L2", "C1", "E8"), ("L3", "C1", "E9")]
     bm.update(laser_only(1, [[0.5, 0.08]], [[1.5, 0.08]]))
     after = sorted((d["id"], u, v, d["fit"]) for u, v, d in bm.graph.edges())
     assert after[:3] == before and [lid for lid, *_ in after[3:]] == ["L4"]
@@ -204,7 +268,9 @@ def test_lines_whose_segments_keep_their_verdict_are_not_rebuilt(monkeypatch):
     bm.update(laser_only(0, [[0, 0]], [[2, 0]]))
     judged, rebuilt = [], []
     monkeypatch.setattr(pipeline, "judge", lambda bm, ids, config: judged.append(ids) or judge(bm, ids, config))
-    monkeypatch.setattr(pipeline, "rebuild", lambda bm, rows, *a: rebuilt.append(rows) or rebuild(bm, rows, *a))
+    monkeypatch.setattr(
+        pipeline, "rebuild", lambda bm, rows, *a, **k: rebuilt.append(rows) or rebuild(bm, rows, *a, **k)
+    )
     bm.update(laser_only(1, [[0.5, 0.08]], [[1.5, 0.08]]))
     assert judged[0].tolist() == [0, 1] and rebuilt[0].tolist() == [1]
     assert judge(bm, np.array([0, 1]), config).tolist() == []
@@ -216,7 +282,9 @@ def test_a_segment_that_joins_a_line_brings_the_line_into_the_rebuild(monkeypatc
     bm = new_map(load_config("default"))
     bm.update(laser_only(0, [[0, 0]], [[1, 0]]))
     rebuilt = []
-    monkeypatch.setattr(pipeline, "rebuild", lambda bm, rows, *a: rebuilt.append(rows) or rebuild(bm, rows, *a))
+    monkeypatch.setattr(
+        pipeline, "rebuild", lambda bm, rows, *a, **k: rebuilt.append(rows) or rebuild(bm, rows, *a, **k)
+    )
     bm.update(laser_only(1, [[0.9, 0.01], [0.5, 0.5]], [[2, 0.01], [0.5, 1.5]]))
     assert rebuilt[0].tolist() == [0, 1, 2]
     assert sorted(d["members"] for _, _, d in bm.graph.edges()) == [[0, 1], [2]]
@@ -231,7 +299,9 @@ def test_open_space_that_changes_no_line_relation_rebuilds_no_line(monkeypatch):
     bm.update(first)
     lines = {lid: list(bm.graph.edge(*bm.ends(lid))["fit"]) for lid in bm.line_ids()}
     rebuilt = []
-    monkeypatch.setattr(pipeline, "rebuild", lambda bm, rows, *a: rebuilt.append(rows) or rebuild(bm, rows, *a))
+    monkeypatch.setattr(
+        pipeline, "rebuild", lambda bm, rows, *a, **k: rebuilt.append(rows) or rebuild(bm, rows, *a, **k)
+    )
     none, nothing = np.zeros((0, 2)), np.zeros(0, dtype=np.intp)
     lsl = LslSegments(none, none, np.zeros(0, dtype=str), nothing, np.zeros(0, dtype=str), nothing)
     features = {name: np.asarray(values)[:0] for name, values in first.features.items()}

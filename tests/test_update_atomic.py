@@ -68,6 +68,31 @@ def test_a_failure_half_way_through_a_log_leaves_the_map_as_it_was(monkeypatch):
     assert content(bm) == content(direct)
 
 
+def test_a_failure_half_way_through_the_first_scan_or_the_corners_join_leaves_the_map_as_it_was(monkeypatch):
+    """The first scan of a log without sonar starts deferring the corners: failing half-way, it leaves the
+    map empty, not deferring; a join of the corners that fails leaves them deferred, the ends free."""
+    config = load_config()
+    log = Path(__file__).parent / "data" / "logs" / "intel-excerpt.log.gz"
+    first, second = [observation_from_log(r, config, k) for k, r in enumerate(open_log(log))][:2]
+    bm = new_map(config)
+    before = content(bm)
+    with monkeypatch.context() as m:
+        m.setattr("evmap.maps.pipeline.refresh_points", lambda *a: (_ for _ in ()).throw(RuntimeError("half-way")))
+        with pytest.raises(RuntimeError, match="half-way"):
+            bm.update(first)
+    assert content(bm) == before and not bm.corners_deferred
+    bm.update(first)
+    bm.update(second)
+    assert bm.corners_deferred
+    before = content(bm)
+    with monkeypatch.context() as m:
+        m.setattr("evmap.maps.rebuild.refresh_points", lambda *a: (_ for _ in ()).throw(RuntimeError("half-way")))
+        with pytest.raises(RuntimeError, match="half-way"):
+            bm.join_corners()
+    assert content(bm) == before and bm.corners_deferred and not bm.corners(min_belief=0)
+    assert bm.join_corners() and bm.corners(min_belief=0) and not bm.corners_deferred
+
+
 def test_nested_transactions_leave_it_to_the_outer_one():
     bm = BeliefMap(["real", "noise"])
     m = bm.vacuous()
