@@ -89,7 +89,13 @@ def write_map(bm: BeliefMap, path: str | Path, *, sync: bool = True) -> None:
     except TypeError as exc:  # an attribute changed in the graph directly, bypassing the checks
         raise ValueError(f"cannot save the map to {path}: {exc}") from None
     digest = hashlib.sha256(text).hexdigest().encode()
-    write_atomic(path, text[:-1] + b"," + CHECKSUM_KEY + digest + b'"}', sync=sync)
+    text = text[:-1] + b"," + CHECKSUM_KEY + digest + b'"}'
+    if len(text) > map_format.MAX_MAP_BYTES:
+        raise ValueError(
+            f"cannot save the map to {path}: {len(text)} bytes, more than the {map_format.MAX_MAP_BYTES} a map "
+            "file may have (evmap would refuse to read it)"
+        )
+    write_atomic(path, text, sync=sync)
 
 
 def read_file(path: str | Path) -> MapParts:

@@ -67,8 +67,10 @@ TRUTHS = ("real", "noise", "")
 RELATIONS = ("", "outside", "partly_inside", "inside")
 """The values of a segment's ``relation`` to the sonar open space (``""``: not judged)."""
 
-MAX_MAP_BYTES = 128 * 1024 * 1024
-"""The largest map file :func:`~evmap.maps.map_file.read_file` reads (a map in memory takes about 17 times its file's size)."""
+MAX_MAP_BYTES = 1024 * 1024 * 1024
+"""The largest map file :func:`~evmap.maps.map_file.read_file` reads, and :func:`~evmap.maps.map_file.write_map`
+writes (loading takes about 7 times the file's size for a log's map, Freiburg 079's whole log 140 MB -> 994 MB
+at its peak, and up to about 17 for a map of many small objects)."""
 
 CHECKSUM_KEY = b'"checksum":"'
 """The last member of a written map file: the SHA-256 of the file without it, in hex."""

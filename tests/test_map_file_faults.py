@@ -107,9 +107,15 @@ def test_a_checksum_written_as_the_contract_says_is_accepted_whatever_the_whites
 
 
 def test_size_limit_and_files_that_are_not_regular(saved, tmp_path, monkeypatch):
+    bm = BeliefMap.load(saved)
     monkeypatch.setattr(map_format, "MAX_MAP_BYTES", 1000)
     with pytest.raises(MapFileError, match="larger than the limit of 1000 bytes"):
         BeliefMap.load(saved)
+    kept = tmp_path / "kept.json"
+    kept.write_bytes(b"not evmap's")
+    with pytest.raises(ValueError, match=r"kept.json: \d+ bytes, more than the 1000 a map file may have"):
+        bm.save(kept)  # evmap writes no map it would refuse to read
+    assert kept.read_bytes() == b"not evmap's"  # nothing written over it
     monkeypatch.undo()
     fifo = tmp_path / "fifo.json"
     os.mkfifo(fifo)
