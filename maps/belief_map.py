@@ -232,8 +232,8 @@ class BeliefMap:
         """The sonar open space, a (possibly empty) shapely MultiPolygon: the union of every observation's.
 
         Set it with a Polygon, a MultiPolygon, an empty geometry or None (that replaces it), or add to it with
-        :meth:`add_open_space`; the union is made when it is read (:class:`~evmap.maps.open_space_pieces.OpenSpacePieces`),
-        and :meth:`open_space_near` reads pieces near a box only.
+        :meth:`add_open_space`; the union is made when it is read (:mod:`~evmap.maps.open_space_pieces`), and
+        :meth:`open_space_near` reads pieces near a box only.
         """
         return self._space.union()
 
@@ -257,7 +257,7 @@ class BeliefMap:
 
     def near(self, bounds: Bounds | NDArray[np.float64], what: str = "all") -> set[str]:
         """Ids of the ``"points"``, ``"lines"``, ``"obstacles"`` (lines and unidentified points) or ``"all"`` whose
-        boxes meet the box ``bounds`` (xmin, ymin, xmax, ymax), or one of an (n, 4) array's (:mod:`evmap.maps.map_index`)."""
+        box meets ``bounds`` (xmin, ymin, xmax, ymax) or one of an (n, 4) array's (:mod:`evmap.maps.map_index`)."""
         return self._objects.index.near(bounds, what)
 
     def extent(self) -> Bounds:
@@ -354,9 +354,9 @@ class BeliefMap:
         min_belief: float = 0.5,
         unknown: str = "blocked",
     ) -> bool:
-        """:func:`evmap.maps.planner.is_segment_clear`: no obstacle near ``a``-``b``; unknown space, outside the
-        occupancy grid's free space (:func:`evmap.maps.free_space.free_space`, made once per version of the map),
-        blocked by default, and then ``clearance`` kept from every surface the stripe measured too."""
+        """:func:`evmap.maps.planner.is_segment_clear`: no obstacle near ``a``-``b``; unknown space (outside the grid's
+        free space, :func:`~evmap.maps.free_space.free_space`: the first query after a change costs what the grid does,
+        the next ones microseconds) blocked by default, and ``clearance`` kept from every surface the stripe met."""
         free, surfaces = (free_space(self), surface_points(self)) if unknown == "blocked" else (None, None)
         return planner.is_segment_clear(self, a, b, clearance, min_belief, unknown, free, surfaces)
 
