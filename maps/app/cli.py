@@ -350,6 +350,8 @@ def log_command(args: argparse.Namespace) -> int:
             rosbag=rosbag,
             unit=args.unit,
         )
+        what = "map.json, the occupancy grid" + (" and the figures" if args.figures != "none" else "")
+        print(f"evmap: {run.log.scans} scans mapped; writing {what}", file=sys.stderr)
         summary = write_staged(run, staging, figures=args.figures != "none", figure_format=args.figures)
     fit = summary["line_fit"]
     coverage = "n/a" if fit["coverage_mean"] is None else f"{fit['coverage_mean']:.3f}"
