@@ -39,8 +39,9 @@ import os
 import re
 import signal
 import sys
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from functools import partial
 from typing import Any
 
 from evmap.maps.app.compare_args import add_compare_parser
@@ -333,10 +334,7 @@ def log_command(args: argparse.Namespace) -> int:
     cfg = load_config(args.config)
     if args.rule:
         cfg = cfg.with_rule(args.rule)
-
-    def bar(records: Iterable[Any]) -> Iterable[Any]:
-        return tqdm(records, desc="scans", unit="scan", file=sys.stderr, total=args.limit, leave=False)
-
+    bar = partial(tqdm, desc="scans", unit="scan", file=sys.stderr, total=args.limit, leave=False)
     rosbag = _rosbag_options(args)
     with prepare_out(args.out, args.force) as staging:  # --out checked and claimed before the work
         print(f"evmap: mapping log {args.file} with rule {cfg.rule!r}", file=sys.stderr)
@@ -350,8 +348,7 @@ def log_command(args: argparse.Namespace) -> int:
             rosbag=rosbag,
             unit=args.unit,
         )
-        what = "map.json, the occupancy grid" + (" and the figures" if args.figures != "none" else "")
-        print(f"evmap: {run.log.scans} scans mapped; writing {what}", file=sys.stderr)
+        print(f"evmap: {run.log.scans} scans mapped; writing the artefacts", file=sys.stderr)
         summary = write_staged(run, staging, figures=args.figures != "none", figure_format=args.figures)
     fit = summary["line_fit"]
     coverage = "n/a" if fit["coverage_mean"] is None else f"{fit['coverage_mean']:.3f}"
