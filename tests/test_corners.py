@@ -67,6 +67,7 @@ def test_each_corner_is_seen_from_the_nearest_of_many_viewpoints():
     for k, xy in enumerate(c.xy):
         nearest = robots[np.argmin(np.hypot(*(robots - xy).T))]
         assert find_corners(p, q, viewpoint=nearest).shape[k] == c.shape[k]
+    assert find_corners([[0, 0]], [[1, 0]], viewpoint=robots).shape.shape == (0,)  # no corner to see
     with pytest.raises(ValueError, match="viewpoint"):
         find_corners(p, q, viewpoint=np.zeros((0, 2)))
     with pytest.raises(ValueError, match="viewpoint"):
