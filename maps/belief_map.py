@@ -168,9 +168,7 @@ class BeliefMap:
 
     @corners_deferred.setter
     def corners_deferred(self, deferred: bool) -> None:
-        self._graph.graph.pop(CORNERS_DEFERRED, None)
-        self._graph.graph.update({CORNERS_DEFERRED: True} if deferred else {})
-        self._objects.changed()
+        self._objects.defer_corners(deferred)
 
     def join_corners(self) -> set[str]:
         """If :attr:`corners_deferred`, join the line ends into corners over the whole map, all or nothing

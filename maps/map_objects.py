@@ -28,7 +28,7 @@ from evidential import Frame, MassFunction, combine, conflict
 from evmap.maps import map_json, planner
 from evmap.maps.change_journal import ChangeJournal
 from evmap.maps.map_checks import check_extras, checked_history, checked_kind
-from evmap.maps.map_format import ID_PREFIXES, LINE_KEYS, LINE_KIND, POINT_KEYS
+from evmap.maps.map_format import CORNERS_DEFERRED, ID_PREFIXES, LINE_KEYS, LINE_KIND, POINT_KEYS
 from evmap.maps.map_graph import MapGraph
 from evmap.maps.map_index import MapIndex
 from evmap.maps.planner import Line, Point
@@ -265,6 +265,15 @@ class MapObjects:
         if pose_index in poses:
             raise ValueError(f"pose {pose_index} is already folded into this map")
         poses.append(int(pose_index))
+        self.changed()
+
+    def defer_corners(self, deferred: bool) -> None:
+        """Mark that updates left line ends free to be joined into corners later (``graph.corners_deferred``,
+        :mod:`evmap.maps.pipeline`), or that nothing waits any more."""
+        if deferred:
+            self.graph.graph[CORNERS_DEFERRED] = True
+        else:
+            self.graph.graph.pop(CORNERS_DEFERRED, None)
         self.changed()
 
     def view(self, id: str) -> Line | Point:
