@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from evidential import RULES
 from evmap import configs
 from evmap.maps.app.cli import main
@@ -97,6 +99,19 @@ def test_an_unknown_rule_exits_2_naming_the_known_rules(capsys, tmp_path):
     assert code == 2 and stdout == ""
     assert "unknown_rule" in stderr and all(rule in stderr for rule in RULES)
     assert "Traceback" not in stderr
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "named"),
+    [(["run", ""], "scenario"), (["run", "--config", ""], "--config"), (["run", "--rule", ""], "--rule"),
+     (["log", ""], "file"), (["compare", "--rules", ""], "--rules")],
+)  # fmt: skip
+def test_an_empty_argument_is_refused_naming_it_not_taken_for_the_default(capsys, tmp_path, args, named):
+    """A script's unset ``$SCENARIO`` ran the embedded corridor and exited 0; ``--config ""`` was named ``.``."""
+    out = tmp_path / "out"
+    code, stdout, stderr = evmap(capsys, *args, "--out", str(out))
+    assert code == 2 and stdout == "" and f"evmap: error: argument {named}: empty" in stderr
     assert not out.exists()
 
 

@@ -45,14 +45,13 @@ from functools import partial
 from typing import Any
 
 from evmap.maps.app.compare_args import add_compare_parser
+from evmap.maps.app.listings import list_rules, list_sources
 from evmap.maps.app.termination import Terminated, terminate
 
 __all__ = [
     "build_parser",
     "config_check",
     "config_explain",
-    "list_rules",
-    "list_sources",
     "log_command",
     "main",
     "run_command",
@@ -92,6 +91,10 @@ def _command(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(_negative_values(sys.argv[1:] if argv is None else argv))
+        for name, value in vars(args).items():  # "" is no path, rule or topic (--odom-topic '': poses from tf)
+            flag = name if name in ("scenario", "file") else "--" + name.replace("_", "-")
+            if value == "" and name != "odom_topic":
+                parser.error(f"argument {flag}: empty")
     except SystemExit as exc:  # argparse printed the usage error (2) or the help (0)
         return exc.code if isinstance(exc.code, int) else 2
     handler: Handler = args.handler
@@ -241,45 +244,6 @@ def build_parser() -> argparse.ArgumentParser:
     kinds = commands.add_parser("sources", help="list the kinds of evidence sources and sensors, built in or plugins")
     kinds.set_defaults(handler=list_sources)
     return parser
-
-
-def list_rules(args: argparse.Namespace) -> int:
-    """``evmap rules``: every combination rule and where it comes from; refused plugin rules and why."""
-    from evidential import RULES
-    from evmap.sources.plugins import load_plugins, origin_of
-
-    refused = [p for p in load_plugins() if p.group == "evmap.rules" and p.problem]
-    out = [
-        "rules (`rule:` in a config, `evmap run --rule NAME`), the properties each claims, and what it does with",
-        "mass on the empty set in a source (empty set: refuse, conflict, as_set, or required: m(∅) > 0 in every",
-        "source, which evmap's sources never give, so such a rule is for the engine, not for a config):",
-    ]
-    width = max(map(len, RULES))
-    for name in sorted(RULES):
-        rule = RULES[name]
-        claimed = ", ".join(sorted(rule.properties)) or "no properties claimed"
-        out.append(f"  {name:<{width}}  {origin_of('evmap.rules', name)}; {claimed}; empty set: {rule.empty_set}")
-    out += [f"refused: {p.name} from {p.origin}: {p.problem}" for p in refused]
-    print("\n".join(out))
-    return 0
-
-
-def list_sources(args: argparse.Namespace) -> int:
-    """``evmap sources``: every kind of evidence source and of sensor, where it comes from; refused plugins."""
-    from evmap.sources.evidence import KINDS
-    from evmap.sources.plugins import load_plugins, origin_of, sensor_kinds
-
-    groups = ("evmap.source_kinds", "evmap.sensor_kinds")
-    refused = [p for p in load_plugins() if p.group in groups and p.problem]
-    sensors = sensor_kinds()
-    out = ["source kinds (`kind:` of a section under `sources`):"]
-    out += [f"  {name}  {origin_of('evmap.source_kinds', name)}" for name in sorted(KINDS)]
-    out.append("sensor kinds (`kind:` of a section under `extra_sensors`; NAME is the sensor's name):")
-    for name in sorted(sensors):
-        out += sensors[name].describe()
-    out += [f"refused: {p.group.removeprefix('evmap.')} {p.name} from {p.origin}: {p.problem}" for p in refused]
-    print("\n".join(out))
-    return 0
 
 
 def compare_command(args: argparse.Namespace) -> int:
