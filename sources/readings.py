@@ -27,8 +27,10 @@ __all__ = [
     "concat_segments",
 ]
 
-MAX_COORDINATE = 1e7
-"""Largest distance (m) of a reading's coordinates from the origin: beyond it, float64 keeps under a nanometre."""
+MAX_COORDINATE = 2e7
+"""Largest distance (m) of a reading's, a pose's or a map's coordinates from the origin (float64 resolves 4 nm
+there): twice a scenario's (:data:`evmap.sources.sim.spec.MAX_COORDINATE`), so that what a world at its limit
+measures (the readings' noise) and maps (echoes placed up to the sonar's range beyond the walls) stays within it."""
 
 OVER_RANGE = 1.5
 """A reading above max_range by up to this factor is clipped to it (noise, timing); beyond it, refused."""

@@ -334,6 +334,29 @@ def test_a_run_at_utm_coordinates_gives_the_same_phantoms_segments_and_map(confi
     np.testing.assert_allclose(moved.mass, original.mass, atol=1e-6)
 
 
+def test_a_scenario_at_the_coordinate_limit_runs_and_its_map_loads(tmp_path: Path) -> None:
+    """A room touching x = 1e7 passed the scenario's checks, then its noisy stripe segments, 57 um beyond,
+    failed the run: readings and maps may go twice as far as a scenario."""
+    from evmap.maps import BeliefMap
+    from evmap.maps.app.run import run_scenario
+
+    text = """version: 1
+name: edge
+seed: 1
+world:
+  walls:
+    - {id: room, points: [[9999994, -10000000], [10000000, -10000000], [10000000, -9999996], [9999994, -9999996],
+                          [9999994, -10000000]]}
+robot:
+  poses:
+    - [9999997, -9999998, 0]
+"""
+    run = run_scenario(parse_scenario(text, "edge.yaml"), load_config("default"))
+    assert len(run.map.lines()) == 4 and np.abs(np.concatenate([run.map.segments.p, run.map.segments.q])).max() > 1e7
+    run.map.save(tmp_path / "map.json")
+    assert len(BeliefMap.load(tmp_path / "map.json").lines()) == 4
+
+
 def test_a_detector_that_would_cut_the_walls_into_too_many_patches_is_refused() -> None:
     """Walls far longer than any room, in patches of 1 cm: refused before a single patch is made."""
     from evmap.maps.observation import observe
