@@ -369,7 +369,7 @@ def point(xy: Iterable[float], what: str) -> tuple[float, float]:
     >>> point((1e300, 1), "P")
     Traceback (most recent call last):
     ...
-    ValueError: P: a point must be within 1e+07 m of the origin (x and y), got (1e+300, 1.0)
+    ValueError: P: a point must be within 2e+07 m of the origin (x and y), got (1e+300, 1.0)
     """
     try:
         x, y = xy

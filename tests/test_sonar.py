@@ -217,7 +217,7 @@ def test_lsl_segments_refuse_non_finite_far_and_unknown_truth():
     one = {"snapshot": np.zeros(1, int), "source": np.array([""]), "pose": np.zeros(1, int)}
     with pytest.raises(ScanError, match=r"p\[0\].*finite"):
         LslSegments(np.array([[np.nan, 0.0]]), np.array([[1.0, 0.0]]), np.array(["real"]), **one)
-    with pytest.raises(ScanError, match=r"q\[0\].*beyond 1e\+07 m"):
+    with pytest.raises(ScanError, match=r"q\[0\].*beyond 2e\+07 m"):
         LslSegments(np.array([[1.0, 1.0]]), np.array([[-1e300, 1.0]]), np.array(["real"]), **one)
     with pytest.raises(ScanError, match=r"truth\[0\] = 'banana'"):
         LslSegments(np.array([[0.0, 0.0]]), np.array([[1.0, 0.0]]), np.array(["banana"]), **one)

@@ -91,9 +91,9 @@ def _command(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(_negative_values(sys.argv[1:] if argv is None else argv))
-        for name, value in vars(args).items():  # "" is no path, rule or topic (--odom-topic '': poses from tf)
+        for name, value in vars(args).items():  # "" is no path, rule or topic but these two: tf, no range topic
             flag = name if name in ("scenario", "file") else "--" + name.replace("_", "-")
-            if value == "" and name != "odom_topic":
+            if value == "" and name not in ("odom_topic", "range_topics"):
                 parser.error(f"argument {flag}: empty")
     except SystemExit as exc:  # argparse printed the usage error (2) or the help (0)
         return exc.code if isinstance(exc.code, int) else 2

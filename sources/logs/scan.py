@@ -85,7 +85,7 @@ def check_pose(pose: ArrayLike, where: str, what: str = "pose") -> NDArray[np.fl
     >>> check_pose([1e300, 0, 0.5], "a.log:4", "laser pose")
     Traceback (most recent call last):
     ...
-    sources.logs.scan.LogError: a.log:4: laser pose (1e+300, 0.0, 0.5): x and y must be within 1e+07 m of the origin
+    sources.logs.scan.LogError: a.log:4: laser pose (1e+300, 0.0, 0.5): x and y must be within 2e+07 m of the origin
     """
     pose = np.asarray(pose, dtype=float)
     if pose.shape != (3,):
