@@ -70,6 +70,14 @@ def test_plain_and_gzip_read_alike(tmp_path: Path) -> None:
     np.testing.assert_array_equal(a.scan.ranges, b.scan.ranges)
 
 
+def test_a_byte_order_mark_is_no_part_of_the_first_line(tmp_path: Path) -> None:
+    """A log saved with a UTF-8 byte-order mark lost its first line: a PARAM, or the first scan."""
+    path = tmp_path / "bom.log"
+    path.write_text("PARAM robot_frontlaser_offset 0.5\n" + FLASER + "\n", encoding="utf-8-sig")
+    (record,) = read_carmen(path)
+    np.testing.assert_allclose(record.robot_pose[:2], [0.0, 0.0], atol=1e-12)  # the laser 0.5 m ahead, at x = 0.5
+
+
 def test_robotlaser1_and_sonar(tmp_path: Path) -> None:
     path = write(
         tmp_path,

@@ -140,7 +140,7 @@ def text_lines(path: str | Path) -> Iterator[tuple[int, str]]:
             gzipped = f.read(2) == b"\x1f\x8b"
             f.seek(0)
             raw = gzip.GzipFile(fileobj=f) if gzipped else f
-            with io.TextIOWrapper(raw, encoding="utf-8", errors="replace") as text:  # a bad byte shows as U+FFFD
+            with io.TextIOWrapper(raw, encoding="utf-8-sig", errors="replace") as text:  # U+FFFD for a bad byte
                 for number, line in enumerate(text, start=1):
                     yield number, line
     except (EOFError, zlib.error, gzip.BadGzipFile) as exc:
