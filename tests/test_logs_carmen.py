@@ -140,6 +140,15 @@ def test_metres_logged_as_millimetres_are_refused(tmp_path: Path) -> None:
         list(read_carmen(path, CarmenOptions(unit="mm")))
 
 
+def test_millimetres_read_as_metres_are_refused_when_the_maximum_range_is_in_millimetres_too(tmp_path: Path) -> None:
+    """A ROS bag's range_max in millimetres let every reading through: the scans were mapped kilometres wide and the
+    run failed at the grid, on its size."""
+    ranges = " ".join(["2500"] * 12)
+    path = write(tmp_path, f"FLASER 12 {ranges} 0 0 0 0 0 0 1 host 1")
+    with pytest.raises(LogError, match="x.log:1: median range 2500 m is implausibly long: .* smaller unit"):
+        list(read_carmen(path, CarmenOptions(max_range=30000.0)))
+
+
 def test_a_beam_spacing_no_laser_has_is_refused(tmp_path: Path) -> None:
     path = write(tmp_path, "PARAM laser_front_laser_resolution 1e-300 h 0", FLASER)
     with pytest.raises(
