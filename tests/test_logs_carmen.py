@@ -92,6 +92,18 @@ def test_robotlaser1_and_sonar(tmp_path: Path) -> None:
     np.testing.assert_allclose(record.sonar.offsets[1], [0, 0.1, 1.5708])
 
 
+def test_a_sonar_glitch_is_no_echo_and_a_sonar_in_another_unit_is_refused(tmp_path: Path) -> None:
+    """One reading of 10.7 m (the sonar's maximum 5 m) refused the whole log, where a ROS bag's is no echo."""
+    offsets = " ".join(["0 0 0"] * 3)
+    path = write(tmp_path, f"SONAR 0.4363 3 1.0 10.7 2.0 {offsets} 3.0 host 3.0", FLASER)
+    (record,) = read_carmen(path)
+    assert record.sonar is not None and np.isnan(record.sonar.ranges[1])
+    assert record.sonar.ranges[[0, 2]].tolist() == [1.0, 2.0]
+    path = write(tmp_path, f"SONAR 0.4363 3 1000 1070 2000 {offsets} 3.0 host 3.0", FLASER)
+    with pytest.raises(LogError, match=r"x.log:1: the SONAR readings' median 1070 m is over twice .* 'm' right"):
+        list(read_carmen(path))
+
+
 def test_millimetres_declared(tmp_path: Path) -> None:
     line = "FLASER 3 1000 2000 3000 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0"
     (record,) = read_carmen(write(tmp_path, line), CarmenOptions(unit="mm"))

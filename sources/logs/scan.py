@@ -64,6 +64,10 @@ Unit = Literal["m", "cm", "mm"]
 MIN_PLAUSIBLE_MEDIAN = 0.05
 """A scan of ten or more returns whose median range is below this (m) was surely logged in a larger unit."""
 
+MAX_PLAUSIBLE_MEDIAN = 500.0
+"""A scan of ten or more returns whose median range is beyond this (m) was surely logged in a smaller unit, its
+maximum range too (a ROS bag's ``range_max`` in millimetres): no 2D laser's returns lie that far."""
+
 MAX_PLAUSIBLE_FACTOR = 2.0
 """Readings of median above this many maximum ranges were surely logged in a smaller unit."""
 
@@ -310,7 +314,8 @@ class LaserGeometry:
         return), finite readings of median over :data:`MAX_PLAUSIBLE_FACTOR` maximum
         ranges (a smaller unit than declared; a few such readings are no returns, as
         drivers report them), ten or more returns of median below
-        :data:`MIN_PLAUSIBLE_MEDIAN` m (a larger unit).
+        :data:`MIN_PLAUSIBLE_MEDIAN` m (a larger unit), or beyond :data:`MAX_PLAUSIBLE_MEDIAN` m (a smaller one,
+        the maximum range declared in it too).
         """
         try:
             raw = np.asarray(words, dtype=float)
@@ -332,9 +337,11 @@ class LaserGeometry:
             )
         r = np.where(np.isfinite(r) & (r > 0) & (r < self.max_range), r, np.nan)
         returned = r[~np.isnan(r)]
-        if len(returned) >= 10 and np.median(returned) < MIN_PLAUSIBLE_MEDIAN:
+        if len(returned) >= 10 and not MIN_PLAUSIBLE_MEDIAN <= np.median(returned) <= MAX_PLAUSIBLE_MEDIAN:
+            short = np.median(returned) < MIN_PLAUSIBLE_MEDIAN
             raise LogError(
-                f"{where}: median range {np.median(returned):g} m is implausibly short: "
-                f"are the ranges in a larger unit than the declared {self.unit!r} (evmap log --unit)?"
+                f"{where}: median range {np.median(returned):g} m is implausibly {'short' if short else 'long'}: "
+                f"are the ranges in a {'larger' if short else 'smaller'} unit than the declared {self.unit!r} "
+                "(evmap log --unit)?"
             )
         return r
