@@ -59,6 +59,7 @@ __all__ = [
     "OCCUPIED_MIN",
     "OccupancyParams",
     "evidential_grid",
+    "grid_bounds",
     "grid_geometry",
     "occupancy_from_masses",
     "occupancy_grid",
@@ -375,13 +376,16 @@ def occupancy_masses(
     p = np.concatenate([s.p, xy])
     q = np.concatenate([s.q, xy])
     belief = np.concatenate([s.line_bel, s.point_bel[solid]])
-    free = free_space(bm)
+    return evidential_grid(free_space(bm), p, q, belief, grid_bounds(bm), resolution, bm.rule, params)
+
+
+def grid_bounds(bm: BeliefMap) -> tuple[float, float, float, float]:
+    """(xmin, ymin, xmax, ymax) of what the map's grid spans: its points, its free space and its poses' places."""
     origins = np.array([place.origin for place in sensed(bm)], dtype=float).reshape(-1, 2)
-    everything = np.concatenate([s.xy, shapely.get_coordinates(free), origins])
+    everything = np.concatenate([state(bm).xy, shapely.get_coordinates(free_space(bm)), origins])
     if not len(everything):
         raise ValueError("the map is empty (no points, no open space, no pose): an occupancy grid has no extent")
-    bounds = (*everything.min(axis=0), *everything.max(axis=0))
-    return evidential_grid(free, p, q, belief, bounds, resolution, bm.rule, params)
+    return (*everything.min(axis=0), *everything.max(axis=0))
 
 
 def occupancy_grid(bm: BeliefMap, resolution: float = 0.05, params: OccupancyParams | None = None) -> NDArray[np.int8]:

@@ -240,3 +240,16 @@ def test_a_believed_wall_is_occupied_in_the_grid_even_where_its_cells_reach_into
             assert (on_wall == value).all(), on_wall
         else:
             assert (on_wall < 65).all() and (on_wall > 25).all(), on_wall
+
+
+def test_a_log_s_ros_map_is_coarser_where_its_grid_would_exceed_max_cells():
+    """A 412 m campus loop mapped in full, then refused at writing the grid (8,280 x 8,280 cells at 5 cm):
+    nothing was written. Its ROS pair is now written at the finest doubled resolution that fits."""
+    from evmap.maps.app.artefacts import ROS_RESOLUTION, ros_resolution
+
+    bm = BeliefMap(["real", "noise"])
+    bm.open_space = shapely.box(0, 0, 20, 30)
+    assert ros_resolution(bm) == ROS_RESOLUTION == 0.05
+    bm.open_space = shapely.box(0, 0, 400, 400)  # 8,000 x 8,000 cells at 5 cm, more than 50 million
+    assert ros_resolution(bm) == 0.1
+    assert bm.occupancy_grid(0.1).shape == (4005, 4005)  # with the padding

@@ -16,8 +16,14 @@ from evmap.maps.app.figures import write_figures
 from evmap.maps.app.output_layout import RUN_LAYOUT, Staging
 from evmap.maps.app.run import Run, report, segment_records
 from evmap.maps.app.staging import claim_output, write_text_atomic
+from evmap.maps.belief_map import BeliefMap
+from evmap.maps.occupancy import OccupancyParams, grid_bounds, grid_geometry
 
-__all__ = ["prepare_out", "write_artefacts", "write_staged"]
+__all__ = ["ROS_RESOLUTION", "prepare_out", "ros_resolution", "write_artefacts", "write_staged"]
+
+ROS_RESOLUTION = 0.05
+"""The cell size (m) of a robot log's ROS map pair; doubled while the grid would exceed
+:attr:`~evmap.maps.occupancy.OccupancyParams.max_cells` (a campus-sized log's: ``map.yaml`` says which)."""
 
 
 def prepare_out(out: str | Path, force: bool) -> AbstractContextManager[Staging]:
@@ -37,10 +43,21 @@ def write_staged(run: Run, staging: Staging, *, figures: bool = True, figure_for
     write_text_atomic(staging.path / "segments.json", json.dumps(segment_records(run)) + "\n")
     run.map.save(staging.path / "map.json", sync=False)  # as the others: the staging appears whole
     if run.log is not None:  # a map of a robot log: the ROS map_server pair too
-        run.map.save_ros_map(staging.path / "map")
+        run.map.save_ros_map(staging.path / "map", ros_resolution(run.map))
     if figures:
         write_figures(run, staging.path, figure_format)
     return summary
+
+
+def ros_resolution(bm: BeliefMap) -> float:
+    """The finest of :data:`ROS_RESOLUTION` times a power of two whose grid of the map fits ``max_cells``."""
+    bounds, resolution = grid_bounds(bm), ROS_RESOLUTION
+    while True:
+        try:
+            grid_geometry(bounds, resolution, OccupancyParams())
+            return resolution
+        except ValueError:  # more cells than max_cells
+            resolution *= 2
 
 
 def write_artefacts(
