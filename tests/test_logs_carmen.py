@@ -272,6 +272,16 @@ def test_rawlaser1_scans_are_placed_between_the_odometry_around_their_stamps(tmp
     )
 
 
+def test_a_clock_stepping_back_in_a_raw_log_is_refused_naming_the_line(tmp_path: Path) -> None:
+    """RAWLASER1 scans of a log whose clock stepped back 3 s were placed among the other period's odometry, up to
+    5 m off, without a word."""
+    raw = "RAWLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 {t} host {t}"
+    odom = "ODOM {x} 0 0 0 0 0 {t} host {t}"
+    lines = [odom.format(x=0.0, t=1.0), raw.format(t=1.5), odom.format(x=1.0, t=2.0), odom.format(x=2.0, t=-1.0)]
+    with pytest.raises(LogError, match=r"x.log:4: ODOM stamp -1.000000 is 3.000000 s before an earlier line's"):
+        list(read_carmen(write(tmp_path, *lines)))
+
+
 def test_rawlaser1_is_read_only_where_the_log_has_no_other_scans(tmp_path: Path) -> None:
     raw = "RAWLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 5.0 host 5.0"
     robot = "ROBOTLASER1 0 -1.5708 3.1416 1.5708 50 0.01 0 3 1 2 3 0 1 2 0.1 1 2 0.1 0 0 0 0 0 5.0 host 5.0"

@@ -315,7 +315,13 @@ def _records(path: Path, options: CarmenOptions) -> Iterator[LogRecord]:
             if len(words) != 10:
                 raise LogError(f"{where}: ODOM needs 10 fields (x y theta tv rv accel and 3 stamps), got {len(words)}")
             pose = check_pose(_numbers(words[1:4], where, "ODOM pose"), where, "odometry pose")
-            odometry.add(_stamp(words, where, "ODOM"), pose)
+            stamp = _stamp(words, where, "ODOM")
+            if raw and odometry.stamps and stamp < odometry.stamps[-1]:  # the scans' poses would mix two periods
+                raise LogError(
+                    f"{where}: ODOM stamp {stamp:.6f} is {odometry.stamps[-1] - stamp:.6f} s before an earlier line's: "
+                    "the log's clock stepped back, and its RAWLASER1 scans are placed by their stamps"
+                )
+            odometry.add(stamp, pose)
             now = odometry.stamps[-1]
         elif name == "SONAR":
             state.sonar = _sonar(words, where, options)
