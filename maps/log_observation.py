@@ -16,7 +16,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from evmap.maps.observation import Observation
 from evmap.sources.config_model import Config
-from evmap.sources.laser import LaserParams, Rays, laser_segments
+from evmap.sources.laser import Rays, laser_segments
+from evmap.sources.laser_params import LaserParams
 from evmap.sources.logs.scan import LogRecord, RangeReadings
 from evmap.sources.params import SonarParams
 from evmap.sources.readings import SonarScan

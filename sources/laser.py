@@ -3,6 +3,13 @@
 :func:`laser_segments` turns a :class:`~evmap.sources.logs.scan.LaserScan` into
 :class:`LaserSegments`:
 
+0. Beams closer than ``beam_step_deg`` (0.5 deg) are taken ``k`` at a time, as one
+   beam (:func:`_grouped`): their mean where their ranges agree within the noise,
+   else one of them. The defaults fit lasers of 0.5-1 deg: at 0.25 deg with 1 cm of
+   noise the points are closer than their noise, and the splits cut a wall into
+   pieces of a few points lying across it. A log's noise is measured in its first
+   scans (:func:`range_noise`); a laser noisier than ``sigma_r`` has its noise
+   model scaled up to it (:meth:`LaserParams.for_noise`, ``evmap log``).
 1. Points: ``pose + range * (cos, sin)`` of every beam that returned (no-return
    and maximum-range readings are NaN in the scan and dropped).
 2. Clusters by the adaptive breakpoint detector of Borges & Aldon (2004, "Line
@@ -53,6 +60,7 @@ the free space along them can be computed.
 
 Examples
 --------
+>>> from evmap.sources.laser_params import LaserParams
 >>> from evmap.sources.logs.scan import LaserScan
 >>> angles = np.radians(np.arange(-45.0, 46.0))
 >>> wall = 2.0 / np.cos(angles)                        # a wall 2 m ahead
@@ -70,54 +78,19 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import BaseModel, ConfigDict, Field
 
+from evmap.sources.laser_params import LaserParams
 from evmap.sources.logs.scan import LaserScan
 from evmap.sources.params import LslParams
 from evmap.sources.polyline import fit_pieces, piece_lines, piece_members, piece_rows, split_pieces
 from evmap.sources.readings import LslSegments
 
-__all__ = ["UNKNOWN_TRUTH", "LaserParams", "LaserSegments", "Rays", "breakpoints", "laser_segments"]
+__all__ = ["UNKNOWN_TRUTH", "LaserSegments", "Rays", "breakpoints", "laser_segments"]
 
 UNKNOWN_TRUTH = ""
 """``truth`` of a segment from real data: the segment store's "unknown" (fits the ``<U5`` dtype of
 :class:`~evmap.sources.readings.LslSegments`; ``"unknown"`` would need ``<U7`` and a new value in
 ``docs/SCENARIO.md``'s ``segments.json``)."""
-
-
-class LaserParams(BaseModel):
-    """The laser's noise model and line-extraction parameters (metres and degrees at this edge).
-
-    The defaults are tuned on the Intel and Freiburg 079 logs (``benchmarks/bench_logs.py``), the same for both.
-    """
-
-    model_config = ConfigDict(defer_build=True, extra="forbid", frozen=True)
-
-    sigma_r: float = Field(0.01, ge=0, le=1, description="range noise std (m); SICK LMS 2xx: about 1 cm")
-    lambda_deg: float = Field(
-        6.0, gt=0, lt=90, description="Borges & Aldon's breakpoint angle: flattest incidence still one surface"
-    )
-    min_points: int = Field(3, ge=2, le=1000, description="fewest points in a segment")
-    sigma_per_metre: float = Field(0.005, ge=0, le=1, description="range noise std grows by this per metre of range")
-    split_threshold: float = Field(0.01, gt=0, le=1, description="split distance from a piece's chord (m)")
-    split_sigmas: float = Field(1.0, ge=0, le=10, description="split distance grows by this many range noise stds")
-    cluster_min_points: int = Field(
-        2, ge=2, le=1000, description="fewest points of a cluster that no piece holds to be fitted whole"
-    )
-    join_sigmas: float = Field(
-        3.0,
-        ge=0,
-        le=10,
-        description="a point no piece holds joins a neighbouring piece's line (a cluster without a piece is fitted "
-        "whole) when its range is within this many range noise stds of where its ray meets the line",
-    )
-    end_points: int = Field(
-        2,
-        ge=0,
-        le=2,
-        description="a run of up to this many points that no piece holds, next to a piece of its cluster, becomes "
-        "a segment of its own (0: none)",
-    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,12 +168,53 @@ def breakpoints(scan: LaserScan, params: LaserParams) -> NDArray[np.intp]:
 
 
 def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) -> LaserSegments:
-    """Line segments and rays of one scan (see the module doc); ``pose_index`` fills the segments' ``pose``."""
+    """Line segments and rays of one scan (see the module doc); ``pose_index`` fills the segments' ``pose``.
+
+    Beams closer than ``beam_step_deg`` are first taken ``k`` at a time (:func:`_grouped`): the segments are
+    fitted to the groups, each spanning its groups' beams; the rays are every beam's.
+    """
+    grouped, k = _grouped(scan, params)
+    segments, pieces = _segments(grouped, params, pose_index)
+    pieces = np.column_stack([pieces[:, 0] * k, np.minimum(pieces[:, 1] * k + k - 1, len(scan.ranges) - 1)])
     returned = ~np.isnan(scan.ranges)
-    b = scan.bearings
-    direction = np.column_stack([np.cos(b), np.sin(b)])
     origin = scan.pose[:2].copy()
-    local = np.where(returned, scan.ranges, scan.max_range)[:, None] * direction
+    return LaserSegments(segments, pieces.reshape(-1, 2), origin, _local(scan) + origin, returned)
+
+
+def _local(scan: LaserScan) -> NDArray[np.float64]:
+    """(R, 2) each beam's return, or its maximum range where it returned nothing, from the laser (world axes)."""
+    b = scan.bearings
+    r = np.where(np.isnan(scan.ranges), scan.max_range, scan.ranges)
+    return r[:, None] * np.column_stack([np.cos(b), np.sin(b)])
+
+
+def _grouped(scan: LaserScan, params: LaserParams) -> tuple[LaserScan, int]:
+    """The scan with its beams taken ``k = round(beam_step_deg / step)`` at a time when that is 2 or more (the
+    last group filled with beams that returned nothing), and ``k``: a group whose ranges agree within 3 range
+    noise stds is one beam at their mean range and angle (the noise less by sqrt(k)); another, its middle beam
+    (an edge between two surfaces: no mean range in the air between them)."""
+    step = float(np.median(np.diff(scan.angles))) if len(scan.angles) > 1 else 0.0
+    k = round(float(np.radians(params.beam_step_deg)) / step) if step > 0 else 1
+    if k < 2:
+        return scan, 1
+    m = -(-len(scan.angles) // k)
+    pad = m * k - len(scan.angles)
+    r = np.concatenate([scan.ranges, np.full(pad, np.nan)]).reshape(m, k)
+    a = np.concatenate([scan.angles, scan.angles[-1] + step * np.arange(1, pad + 1)]).reshape(m, k)
+    middle = (k - 1) // 2  # the first of two: the last group's padding is no beam
+    sigma = params.sigma_r + params.sigma_per_metre * r[:, middle]
+    with np.errstate(invalid="ignore"):
+        agree = np.ptp(r, axis=1) <= 3 * sigma  # False where a beam returned nothing (NaN)
+    ranges = np.where(agree, r.mean(axis=1), r[:, middle])
+    angles = np.where(agree, a.mean(axis=1), a[:, middle])
+    return LaserScan(scan.stamp, scan.pose, angles, ranges, scan.max_range), k
+
+
+def _segments(scan: LaserScan, params: LaserParams, pose_index: int) -> tuple[LslSegments, NDArray[np.intp]]:
+    """The segments of a scan whose beams are taken one at a time, and (N, 2) the first and last beam of each."""
+    returned = ~np.isnan(scan.ranges)
+    origin = scan.pose[:2].copy()
+    local = _local(scan)
     starts = breakpoints(scan, params)
     beams = np.flatnonzero(returned)
     # returned points in scan order, a NaN row before every cluster but the first: no piece spans two clusters
@@ -235,7 +249,7 @@ def laser_segments(scan: LaserScan, params: LaserParams, pose_index: int = 0) ->
         source=np.full(n, "", dtype="<U1"),
         pose=np.full(n, pose_index, dtype=np.intp),
     )
-    return LaserSegments(segments, beam_of_row[pieces].reshape(-1, 2), origin, local + origin, returned)
+    return segments, beam_of_row[pieces].reshape(-1, 2)
 
 
 def _merge(

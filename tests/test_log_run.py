@@ -107,6 +107,7 @@ def test_evmap_log_writes_the_run_artefacts(tmp_path, capsys):
     report = json.loads((out / "report.json").read_text())
     assert printed == report
     assert report["scans"] == 5 and report["sonar"] == "none"
+    assert report["laser_noise"] == pytest.approx(0.0061, abs=0.0002)  # the log's centimetre steps: below the model's
     assert report["noise_recall"] is None and report["real_loss"] is None
     assert report["scenario"] is None and report["log"] == str(INTEL)  # the contract's keys, every one there
     assert set(report["seconds"]) == {"total", "per_scan_median"} and set(report["line_fit"]) == {

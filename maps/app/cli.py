@@ -318,7 +318,8 @@ def log_command(args: argparse.Namespace) -> int:
     coverage = "n/a" if fit["coverage_mean"] is None else f"{fit['coverage_mean']:.3f}"
     error = "n/a" if fit["rms_error_median"] is None else f"{100 * fit['rms_error_median']:.2f} cm"
     print(
-        f"evmap: {summary['scans']} scans (sonar: {summary['sonar']}), {summary['lsl_segments']} segments, "
+        f"evmap: {summary['scans']} scans (sonar: {summary['sonar']}; laser noise "
+        f"{100 * summary['laser_noise']:.1f} cm), {summary['lsl_segments']} segments, "
         f"{summary['lines_after_merge']} lines, {summary['corners']} corners; line fit coverage {coverage}, "
         f"error {error}; {summary['seconds']['total']:.1f} s "
         f"({1000 * summary['seconds']['per_scan_median']:.1f} ms per scan); written to {args.out}",

@@ -41,7 +41,7 @@ from evmap.maps import new_map
 from evmap.maps.app.run import LogSummary, Run
 from evmap.maps.log_observation import observation_from_log
 from evmap.sources.config_model import Config
-from evmap.sources.laser import LaserParams
+from evmap.sources.laser_params import NOISE_SCANS, LaserParams, range_noise
 from evmap.sources.line_fit import log_fit, scan_fit
 from evmap.sources.logs import LogRecord, RangeReadings, RosbagOptions, open_log
 from evmap.sources.logs.scan import Unit
@@ -81,8 +81,9 @@ def run_log(
     if limit is not None and limit < 1:
         raise ValueError(f"--limit must be at least 1, got {limit}")
     _check_readings(config, readings)
-    laser = laser or LaserParams()
     log = open_log(path, unit, rosbag=rosbag)
+    noise = range_noise(record.scan for record in islice(iter(log), NOISE_SCANS))
+    laser = laser or LaserParams().for_noise(noise)
     records: Iterable[LogRecord] = islice(_every(iter(log), every), limit)
     if progress is not None:
         records = progress(records)
@@ -121,6 +122,7 @@ def run_log(
         coverage_mean=_finite(coverage),
         rms_error_median=_finite(error),
         per_scan_median=float(np.median(seconds)),
+        laser_noise=noise,
         fits=tuple(fits),
     )
     total = float(np.sum(seconds)) + joined

@@ -46,6 +46,8 @@ class LogSummary:
     coverage_mean, rms_error_median : PLE's line-fit measures of the scans' laser segments
         (:func:`evmap.sources.line_fit.log_fit`); None (``null``) where undefined.
     per_scan_median : median seconds of one scan's computation (extraction and update).
+    laser_noise : the laser's range noise std (m) the log's first scans show
+        (:func:`evmap.sources.laser.range_noise`).
     fits : each scan's line fit: where its returned rays ended, and which its segments explain
         (drawn in ``fig9_line_fit``; not in the report).
     """
@@ -57,6 +59,7 @@ class LogSummary:
     coverage_mean: float | None
     rms_error_median: float | None
     per_scan_median: float
+    laser_noise: float
     fits: tuple[ScanFit, ...]
 
 
@@ -220,6 +223,7 @@ def _log_report(run: Run, log: LogSummary) -> dict[str, Any]:
         "scans_skipped": log.scans_skipped,
         "poses": len(run.observations),
         "sonar": log.sonar,
+        "laser_noise": log.laser_noise,
         "lsl_segments": int(raw.sum()),
         "noise_segments": None,
         "noise_eliminated": None,
