@@ -169,9 +169,10 @@ def mirrored(
             k, line = np.nonzero(crosses & over)
             toward = -np.sign(side_start[k, line])[:, None] * n[line]
             crosses[k, line] = may_stand(np.abs(side_start[k, line]), toward, halfwidth, echoes, beyond)
-    image = xy[:, None, :] - 2 * side_xy[..., None] * n[None]  # (K, L, 2)
-    gap = np.hypot(*(image[:, :, None, :] - targets[None, None]).transpose(3, 0, 1, 2))  # (K, L, T)
-    k, line, j = np.nonzero(crosses[..., None] & (gap <= tolerance))
+    k, line = np.nonzero(crosses)  # the images of the paths that cross, against every target
+    image = xy[k] - 2 * side_xy[k, line][:, None] * n[line]
+    hit, j = np.nonzero(np.hypot(*(image[:, None, :] - targets[None]).transpose(2, 0, 1)) <= tolerance)
+    k, line = k[hit], line[hit]
     if walls is not None and len(k) and len(walls[0]):
         a, leg = at[k, line], targets[j] - at[k, line]
         s, w = crossings(a[:, None], leg[:, None], walls[0][None], (walls[1] - walls[0])[None])
