@@ -3,7 +3,7 @@
 Usage: ``python benchmarks/bench_logs.py [--limit N] [LOG ...]`` (default: the
 Intel and Freiburg 079 corrected logs in ``/work/shared/data/carmen``). Every scan
 of each log (the first N with ``--limit``) is read, its segments extracted with the default
-:class:`~evmap.sources.laser.LaserParams`, scored by :mod:`evmap.sources.line_fit`
+:class:`~evmap.sources.laser_params.LaserParams` (fitted to the log's noise), scored by :mod:`evmap.sources.line_fit`
 and folded into one map (:func:`evmap.maps.app.log_run.run_log`, the
 computation of ``evmap log``). Printed per log: scans, median update (extraction
 and update, ms), the ratio of the medians of the last and the first tenth of
