@@ -191,8 +191,8 @@ def _local(scan: LaserScan) -> NDArray[np.float64]:
 def _grouped(scan: LaserScan, params: LaserParams) -> tuple[LaserScan, int]:
     """The scan with its beams taken ``k = round(beam_step_deg / step)`` at a time when that is 2 or more (the
     last group filled with beams that returned nothing), and ``k``: a group whose ranges agree within 3 range
-    noise stds is one beam at their mean range and angle (the noise less by sqrt(k)); another, its middle beam
-    (an edge between two surfaces: no mean range in the air between them)."""
+    noise stds is one beam at their mean range and angle (the noise less by sqrt(k)); another, one of its beams,
+    the middle one (the first of two: an edge between two surfaces, no mean range in the air between them)."""
     step = float(np.median(np.diff(scan.angles))) if len(scan.angles) > 1 else 0.0
     k = round(float(np.radians(params.beam_step_deg)) / step) if step > 0 else 1
     if k < 2:
