@@ -60,7 +60,8 @@ from numpy.typing import NDArray
 from evidential import MassFunction
 from evmap.maps.free_space import FreeSpaceParams
 from evmap.maps.mirror_echoes import mirror_echoes
-from evmap.maps.sensed import Sensed, heard_from, pose_sensed, sensed
+from evmap.maps.pane_faces import Panes, pane_faces
+from evmap.maps.sensed import Sensed, heard_from, pose_sensed
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.maps.stripe_contour import stripe_bound
 from evmap.sources.config_model import Config
@@ -151,17 +152,18 @@ def drop_explained(bm: BeliefMap, config: Config, changed: Iterable[str] | None 
     removed = _on_lines(bm, config.unidentified.explained_distance)
     for uid in removed:
         bm.remove_point(uid)
-    hidden = behind_panes(bm, config)
+    panes = _panes(bm, config)
+    hidden = behind_panes(bm, config, panes)
     for uid in hidden:
         bm.remove_point(uid)
     behind = behind_stripes(bm, config, changed)
     for uid in behind:
         bm.remove_point(uid)
-    params = config.unidentified
-    panes = None
-    if params.pane_width > 0 and params.mirror_tolerance > 0:  # glass heard square mirrors too
-        panes = _panes(bm, {s.pose_index: s for s in sensed(bm)}, params.pane_width, params.merge_radius)
-    mirrors = mirror_echoes(bm, config, BELIEVED, panes)
+    glass = None  # glass heard square mirrors too: the same faces, less those of the objects removed
+    if panes is not None and config.unidentified.mirror_tolerance > 0:
+        kept = panes.without(hidden + behind)
+        glass = kept.p, kept.q
+    mirrors = mirror_echoes(bm, config, BELIEVED, glass)
     for uid in mirrors:
         bm.remove_point(uid)
     return removed + hidden + behind + mirrors
@@ -242,28 +244,35 @@ def _believed_ends(bm: BeliefMap, ids: Iterable[str]) -> tuple[NDArray[np.float6
     return p, q
 
 
-def behind_panes(bm: BeliefMap, config: Config) -> list[str]:
+def _panes(bm: BeliefMap, config: Config) -> Panes | None:
+    """The faces of the believed objects (:func:`~evmap.maps.pane_faces.pane_faces`); None when ``pane_width`` is 0."""
+    params = config.unidentified
+    if params.pane_width <= 0:
+        return None
+    return pane_faces(bm, [u.id for u in bm.unidentified(BELIEVED)], params.pane_width, params.merge_radius)
+
+
+def behind_panes(bm: BeliefMap, config: Config, panes: Panes | None = None) -> list[str]:
     """The unidentified objects whose every path to the poses that heard them crosses another object's pane.
 
     A pane is a face ``unidentified.pane_width`` across, square to the bearing from a pose
     that heard the object, of each object believed at least :data:`BELIEVED` that the
-    pose's stripe saw through (:func:`_panes`). An object crosses one when the segment
-    from a pose's sensor to it meets the face and it lies more than
+    pose's stripe saw through (:func:`~evmap.maps.pane_faces.pane_faces`; ``panes``, or found anew). An object
+    crosses one when the segment from a pose's sensor to it meets the face and it lies more than
     ``unidentified.merge_radius`` beyond the face's line. None when ``pane_width`` is 0.
     """
     params = config.unidentified
-    if params.pane_width <= 0:
+    panes = panes if panes is not None else _panes(bm, config)
+    if panes is None or not len(panes.p):
         return []
-    poses = {s.pose_index: s for s in sensed(bm)}
-    fp, fq = _panes(bm, poses, params.pane_width, params.merge_radius)
-    if not len(fp):
-        return []
+    fp, fq = panes.p, panes.q
     ids, xy, start = [], [], []
     for u in bm.unidentified():
-        for pose in sorted(heard_from(bm, u.id) & poses.keys()):
-            ids.append(u.id)
-            xy.append(u.xy)
-            start.append(poses[pose].origin)
+        for pose in sorted(heard_from(bm, u.id)):
+            if (s := pose_sensed(bm, pose)) is not None:
+                ids.append(u.id)
+                xy.append(u.xy)
+                start.append(s.origin)
     if not ids:
         return []
     a, b = np.array(start, dtype=float), np.array(xy, dtype=float)
@@ -274,50 +283,6 @@ def behind_panes(bm: BeliefMap, config: Config) -> list[str]:
     blocked[path[line_distances(b[path], fp[face], fq[face]) > params.merge_radius]] = True
     path_ids = np.array(ids)
     return sorted(set(path_ids[blocked].tolist()) - set(path_ids[~blocked].tolist()))
-
-
-def _panes(
-    bm: BeliefMap, poses: dict[int, Sensed], width: float, radius: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Faces p-q, (F, 2) each, ``width`` across, of the believed objects a pose heard and its stripe saw through.
-
-    The face of an object heard from a pose is square to the bearing from the pose. A pose
-    whose stripe put a point within ``radius`` of the object (its rays within
-    :attr:`FreeSpaceParams.max_gap` of the object's bearing) saw an opaque surface there, a
-    corner or a pillar, not a pane: it gives no face.
-    """
-    max_gap = FreeSpaceParams().max_gap
-    p, q = [], []
-    for u in bm.unidentified(BELIEVED):
-        xy = np.asarray(u.xy, dtype=float)
-        for pose in sorted(heard_from(bm, u.id) & poses.keys()):
-            d = xy - poses[pose].origin
-            n = float(np.hypot(*d))
-            if n <= 0 or _stripe_at(poses[pose], xy, max_gap, radius):
-                continue
-            side = np.array([-d[1], d[0]]) / n * width / 2
-            p.append(xy - side)
-            q.append(xy + side)
-    return np.array(p, dtype=float).reshape(-1, 2), np.array(q, dtype=float).reshape(-1, 2)
-
-
-def _stripe_at(s: Sensed, xy: NDArray[np.float64], angle: float, radius: float) -> bool:
-    """Whether a returned ray of ``s`` within ``angle`` of the bearing of ``xy`` ends within ``radius`` of it."""
-    d = xy - s.origin
-    bearing = np.arctan2(d[1], d[0])
-    lo, hi = np.searchsorted(s.bearing, [bearing - angle, bearing + angle])
-    rays = np.r_[lo:hi]
-    if bearing - angle < -np.pi:  # the bearings wrap around at -pi
-        rays = np.r_[rays, np.searchsorted(s.bearing, bearing - angle + 2 * np.pi) : len(s.bearing)]
-    if bearing + angle >= np.pi:
-        rays = np.r_[rays, 0 : np.searchsorted(s.bearing, bearing + angle - 2 * np.pi)]
-    r = s.range[rays]
-    ok = np.isfinite(r)
-    if not ok.any():
-        return False
-    t = s.bearing[rays[ok]]
-    ends = s.origin + r[ok, None] * np.column_stack([np.cos(t), np.sin(t)])
-    return bool((np.hypot(*(ends - xy).T) <= radius).any())
 
 
 def _on_lines(bm: BeliefMap, distance: float) -> list[str]:
