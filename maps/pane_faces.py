@@ -45,13 +45,16 @@ def pane_faces(bm: BeliefMap, objects: Iterable[str], width: float, radius: floa
     max_gap = FreeSpaceParams().max_gap
     ids = list(objects)
     xy = np.array([bm.graph.nodes[u]["xy"] for u in ids], dtype=float).reshape(-1, 2)
-    pairs = sorted((pose, i) for i, u in enumerate(ids) for pose in heard_from(bm, u))
+    heard: dict[int, list[int]] = {}  # pose -> the objects it heard
+    for i, u in enumerate(ids):
+        for pose in heard_from(bm, u):
+            heard.setdefault(pose, []).append(i)
     found: list[tuple[int, int, NDArray[np.float64]]] = []  # (object, pose, half the face)
-    for pose in sorted({pose for pose, _ in pairs}):
+    for pose, objects_heard in heard.items():
         s = pose_sensed(bm, pose)
         if s is None:
             continue
-        mine = np.array([i for k, i in pairs if k == pose], dtype=np.intp)
+        mine = np.array(objects_heard, dtype=np.intp)
         d = xy[mine] - s.origin
         n = np.hypot(*d.T)
         bearing = np.arctan2(d[:, 1], d[:, 0])
@@ -60,8 +63,8 @@ def pane_faces(bm: BeliefMap, objects: Iterable[str], width: float, radius: floa
         ends = s.origin + s.range[ok, None] * np.column_stack([np.cos(t), np.sin(t)])
         off = (t[None] - bearing[:, None] + np.pi) % (2 * np.pi) - np.pi
         near = np.hypot(*(ends[None] - xy[mine, None]).transpose(2, 0, 1)) <= radius
-        seen = ((off >= -max_gap) & (off < max_gap) & near).any(axis=1)
-        for i, di, ni in zip(mine[(n > 0) & ~seen], d[(n > 0) & ~seen], n[(n > 0) & ~seen], strict=True):
+        face = (n > 0) & ~((off >= -max_gap) & (off < max_gap) & near).any(axis=1)
+        for i, di, ni in zip(mine[face], d[face], n[face], strict=True):
             found.append((int(i), pose, np.array([-di[1], di[0]]) / ni * width / 2))
     found.sort(key=lambda f: (f[0], f[1]))  # by object, then pose
     p = np.array([xy[i] - side for i, _, side in found], dtype=float).reshape(-1, 2)
