@@ -311,7 +311,9 @@ def _bag(tmp_path: Path) -> Path:
     return write_bag(tmp_path / "two.bag", 1, messages)
 
 
-def test_evmap_log_reads_the_bag_s_topics_it_is_told_and_reports_the_scans_skipped(tmp_path, capsys):
+def test_evmap_log_reads_the_bag_s_topics_it_is_told_by_name_or_relative_name_and_reports_the_scans_skipped(
+    tmp_path, capsys
+):
     bag = _bag(tmp_path)
     out = tmp_path / "out"
     assert main(["log", str(bag), "--out", str(out), "--figures", "none"]) == 2
@@ -321,7 +323,7 @@ def test_evmap_log_reads_the_bag_s_topics_it_is_told_and_reports_the_scans_skipp
     report = json.loads((out / "report.json").read_text())
     assert (report["scans"], report["scans_skipped"], report["sonar"]) == (3, 1, "log")
     out2 = tmp_path / "out2"
-    args = ["log", str(bag), "--out", str(out2), "--figures", "none", "--scan-topic", "/scan2", "--range-topics", ""]
+    args = ["log", str(bag), "--out", str(out2), "--figures", "none", "--scan-topic", "scan2", "--range-topics", ""]
     assert main(args) == 0
     report = json.loads((out2 / "report.json").read_text())
     assert (report["scans"], report["scans_skipped"], report["sonar"]) == (3, 0, "none")

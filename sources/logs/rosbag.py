@@ -52,7 +52,8 @@ and stamp: a non-finite pose or transform, a rotation that is no unit quaternion
 a beam layout that does not fit its ``angle_max``, a non-positive or non-finite
 ``range_max``, the range checks of
 :meth:`~evmap.sources.logs.scan.LaserGeometry.ranges`, a Range of impossible
-field of view, minimum or maximum range; missing or ambiguous topics; a file that is no bag,
+field of view, minimum or maximum range; missing or ambiguous topics (a topic given without its leading
+slash, ``scan``, is the bag's ``/scan`` as ROS resolves it, where the bag has no ``scan``); a file that is no bag,
 a directory without a ROS 2 bag's ``metadata.yaml``, and a damaged bag (naming the
 stamp of the last message read). The errors name the options as ``evmap log``'s
 flags (``--scan-topic``, ``--odom-topic``, ...; :class:`RosbagOptions`).
@@ -170,6 +171,11 @@ def _topics(reader: AnyReader, msgtype: str) -> list[str]:
     return sorted({c.topic for c in reader.connections if c.msgtype == msgtype})
 
 
+def _named(name: str, topics: list[str]) -> str:
+    """The topic a name stands for: a relative name (``scan``) is the global one (``/scan``) if the bag has not it."""
+    return "/" + name if name not in topics and "/" + name in topics else name
+
+
 def _choose(reader: AnyReader, path: Path, options: RosbagOptions) -> tuple[str, list[str], str]:
     scans = _topics(reader, LASER_SCAN)
     scan_topic = options.scan_topic
@@ -179,10 +185,10 @@ def _choose(reader: AnyReader, path: Path, options: RosbagOptions) -> tuple[str,
         if len(scans) > 1:
             raise LogError(f"{path}: {len(scans)} LaserScan topics ({', '.join(scans)}): name one with --scan-topic")
         scan_topic = scans[0]
-    elif scan_topic not in scans:
+    elif (scan_topic := _named(scan_topic, scans)) not in scans:
         raise LogError(f"{path}: no LaserScan topic {scan_topic!r} (LaserScan topics: {', '.join(scans) or 'none'})")
     ranges = _topics(reader, RANGE)
-    range_topics = ranges if options.range_topics is None else list(options.range_topics)
+    range_topics = ranges if options.range_topics is None else [_named(topic, ranges) for topic in options.range_topics]
     if missing := sorted(set(range_topics) - set(ranges)):
         raise LogError(
             f"{path}: no Range topic {missing[0]!r} (Range topics: {', '.join(ranges) or 'none'}; "
@@ -197,7 +203,7 @@ def _choose(reader: AnyReader, path: Path, options: RosbagOptions) -> tuple[str,
                 "(or --odom-topic '' for poses from tf)"
             )
         odom_topic = odoms[0] if odoms else ""
-    elif odom_topic and odom_topic not in odoms:
+    elif odom_topic and (odom_topic := _named(odom_topic, odoms)) not in odoms:
         raise LogError(f"{path}: no Odometry topic {odom_topic!r} (Odometry topics: {', '.join(odoms) or 'none'})")
     return scan_topic, range_topics, odom_topic
 
