@@ -33,6 +33,10 @@ def test_killian_excerpt_scans_at_their_vertices() -> None:
         (["VERTEX_SE2 0 1 nan 0"], "x.g2o:1: vertex pose (1.0, nan, 0.0) is not finite"),
         (["VERTEX_SE2 0 1 a 0"], "x.g2o:1: VERTEX_SE2 pose '1 a 0' is not three numbers"),
         (["VERTEX_SE2 0 0 0 0", SCAN.replace(" 5 2 2 2 2 2 ", " 5 2 2 2 2 ")], "x.g2o:2: ROBOTLASER1"),
+        (
+            ["VERTEX_SE2 0 0 0 0", "VERTEX_SE2 1 1 0 0", SCAN, SCAN.replace(" 2 0 0 0 0 0 0 0 ", " 2 0 2 0 0 2 0 0 ")],
+            "x.g2o:4: ROBOTLASER1 robot pose 2.00 m from that of the first scan at the VERTEX_SE2 of line 2",
+        ),
     ],
 )
 def test_refused_lines(tmp_path: Path, lines: list[str], message: str) -> None:

@@ -9,7 +9,11 @@ lines are skipped; one record per ROBOTLASER1 line, in file order.
 
 Checks, each a :class:`~evmap.sources.logs.scan.LogError` naming the file and
 line: a VERTEX_SE2 without four fields or with a non-finite pose, a ROBOTLASER1
-line before any vertex, and every check of the ROBOTLASER1 reader.
+line before any vertex, a ROBOTLASER1 line whose robot pose lies more than
+:data:`MAX_MOVE_AT_VERTEX` from that of the first scan at the same vertex (the
+robot moved between them, so one vertex cannot be the pose of both: a file whose
+scans do not follow their vertices, e.g. every vertex first and then every scan),
+and every check of the ROBOTLASER1 reader.
 
 Examples
 --------
@@ -32,7 +36,10 @@ import numpy as np
 from evmap.sources.logs.carmen import robotlaser1, text_lines
 from evmap.sources.logs.scan import UNITS, Log, LogError, LogRecord, Unit, check_pose, compose, relative
 
-__all__ = ["read_g2o"]
+__all__ = ["MAX_MOVE_AT_VERTEX", "read_g2o"]
+
+MAX_MOVE_AT_VERTEX = 0.5
+"""How far (m) the robot poses of the ROBOTLASER1 lines at one vertex may lie apart."""
 
 
 def read_g2o(path: str | Path, unit: Unit = "m") -> Log:
@@ -44,6 +51,7 @@ def read_g2o(path: str | Path, unit: Unit = "m") -> Log:
 
 def _records(path: Path, unit: Unit) -> Iterator[LogRecord]:
     vertex = None
+    first_robot = None  # the robot pose of the first scan at the vertex
     index = 0
     for number, line in text_lines(path):
         words = line.split()
@@ -58,10 +66,18 @@ def _records(path: Path, unit: Unit) -> Iterator[LogRecord]:
             except ValueError:
                 raise LogError(f"{where}: VERTEX_SE2 pose {' '.join(words[2:5])!r} is not three numbers") from None
             vertex = check_pose(values, where, "vertex pose")
+            vertex_line, first_robot = number, None
         elif words[0] == "ROBOTLASER1":
             if vertex is None:
                 raise LogError(f"{where}: ROBOTLASER1 before any VERTEX_SE2: no pose to attach the scan to")
             scan, robot = robotlaser1(words, where, unit)
+            if first_robot is None:
+                first_robot = robot
+            elif (moved := float(np.hypot(*(robot[:2] - first_robot[:2])))) > MAX_MOVE_AT_VERTEX:
+                raise LogError(
+                    f"{where}: ROBOTLASER1 robot pose {moved:.2f} m from that of the first scan at the VERTEX_SE2 of "
+                    f"line {vertex_line} (more than {MAX_MOVE_AT_VERTEX} m): the scans do not follow their vertices"
+                )
             laser = compose(vertex, relative(robot, scan.pose))
             yield LogRecord(index, replace(scan, pose=laser), vertex)
             index += 1
