@@ -282,3 +282,18 @@ def test_other_poses_counts_the_other_poses_that_saw_a_segment(segments, random)
     assert other_poses(p, q, pose, cp, cq, cpose, MergeParams()).tolist() == expected
     one = np.zeros(k, dtype=np.intp)  # one pose judged: its own candidates never count
     assert not other_poses(p, q, one, cp, cq, one, MergeParams()).any()
+
+
+def test_a_line_of_pieces_turned_across_a_wall_joins_it_where_it_fits_as_a_whole():
+    """Two pieces 20-24 deg off a wall and within 3 cm of it (laser pieces on the Intel log): each is beyond its
+    turn allowance from the wall, so steps 1-3 leave the two a line of their own; that line is related to the
+    wall (the paper's pair rule) and, as one member, fits their union: they join."""
+    p = np.array([[0.29, 0.02], [0.38, 0.02], [0.04, 0.03]])
+    q = np.array([[0.47, 0.10], [0.54, 0.08], [1.82, 0.11]])
+    for k in (0, 1):
+        assert len(merge_segments(p[[k, 2]], q[[k, 2]]).p) == 2
+    pieces = merge_segments(p[:2], q[:2])
+    assert len(pieces.p) == 1 and len(related_pairs(np.r_[pieces.p, p[2:]], np.r_[pieces.q, q[2:]], MergeParams())[0])
+    m = merge_segments(p, q)
+    assert [g.tolist() for g in m.groups] == [[0, 1, 2]]
+    np.testing.assert_allclose([m.p[0], m.q[0]], [p[2], q[2]], atol=0.005)
