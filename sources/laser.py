@@ -51,7 +51,9 @@
    grazing angle: a ray the segments would otherwise not explain.
 5. Ends: each piece's total-least-squares line is cut by the rays of its first
    and last points, so the segment spans, seen from the laser, exactly the beams
-   it was fitted to.
+   it was fitted to; but the point's foot on the line where its ray meets the line
+   farther than ``join_sigmas * sigma`` from it in range (a point off the line, as
+   the next wall's first one: at a grazing angle its ray runs on past the corner).
 
 The segments come in the pipeline's :class:`~evmap.sources.readings.LslSegments`
 form (``truth`` is :data:`UNKNOWN_TRUTH`, ``snapshot`` 0, ``source`` ``""``); the
@@ -239,7 +241,7 @@ def _segments(scan: LaserScan, params: LaserParams, pose_index: int) -> tuple[Ls
     pieces = _whole_runs(points, pieces, limit, params.cluster_min_points)
     pieces = _grow(points, _merge(points, pieces, tolerance, limit), limit)
     pieces = _end_runs(points, pieces, params.end_points) if params.end_points else pieces
-    p, q = _cut_by_end_rays(points, pieces)
+    p, q = _cut_by_end_rays(points, pieces, limit)
     n = len(pieces)
     segments = LslSegments(
         p=p + origin,
@@ -378,12 +380,10 @@ def _runs_within(
 
 
 def _cut_by_end_rays(
-    points: NDArray[np.float64], pieces: NDArray[np.intp]
+    points: NDArray[np.float64], pieces: NDArray[np.intp], limit: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Each piece's fitted line cut by the rays (from the origin) of its first and last points.
-
-    Where a ray nearly runs along the line, the point's foot on the line is used instead.
-    """
+    """Each piece's fitted line cut by the rays (from the origin) of its first and last points; by the point's
+    foot where the ray nearly runs along the line or meets it farther than ``limit`` (per point) in range."""
     centre, u = piece_lines(points, pieces)
     c, u, ends = centre[:, None], u[:, None], points[pieces]  # ends: (n, 2, 2), each piece's first and last point
     cross = ends[..., 0] * u[..., 1] - ends[..., 1] * u[..., 0]  # ray direction (end) x line direction
@@ -394,7 +394,13 @@ def _cut_by_end_rays(
             np.nan,
         )
     along = (ends[..., 0] - c[..., 0]) * u[..., 0] + (ends[..., 1] - c[..., 1]) * u[..., 1]
-    cut = np.where((np.isfinite(t) & (t > 0))[..., None], ends * t[..., None], c + along[..., None] * u)
+    ray = np.isfinite(t) & (t > 0)
+    foot = c + along[..., None] * u
+    cut = np.where(ray[..., None], ends * t[..., None], foot)
+    off = np.abs(t - 1) * np.hypot(ends[..., 0], ends[..., 1])  # how far in range the ray meets the line
+    feet = np.where((ray & (off <= limit[pieces]))[..., None], cut, foot)
+    kept = np.hypot(*(feet[:, 1] - feet[:, 0]).T) > 1e-3  # a blob of a few points whose feet meet keeps its rays
+    cut[kept] = feet[kept]
     return cut[:, 0], cut[:, 1]
 
 

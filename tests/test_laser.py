@@ -39,6 +39,18 @@ def test_corner_gives_two_walls_meeting_at_the_corner() -> None:
     assert segs.segments.snapshot.tolist() == [0, 0] and segs.segments.source.tolist() == ["", ""]
 
 
+def test_a_wall_seen_at_a_grazing_angle_ends_at_its_corner_not_where_the_cross_wall_s_ray_meets_it() -> None:
+    """A wall 2 m to the right, seen out to 18.6 m, its last beam (6 deg) on the cross wall 5 cm off the wall's
+    line: that point's ray meets the wall's line 0.35 m past the corner; the segment ends at the point's foot."""
+    angles = np.radians(np.arange(-60.0, -5.0, 1.0))
+    corner = 1.95 / np.tan(np.radians(6.0))
+    ranges = np.where(angles < np.radians(-6.5), 2.0 / np.sin(-angles), corner / np.cos(angles))
+    segs = laser_segments(LaserScan(0.0, np.zeros(3), angles, ranges, 80.0), LaserParams())
+    assert segs.pieces.tolist() == [[0, 54]]
+    assert segs.segments.q[0][0] == pytest.approx(corner, abs=0.01)
+    assert segs.segments.p[0][0] == pytest.approx(2.0 / np.tan(np.radians(60.0)), abs=0.01)  # its first ray
+
+
 def test_rays_start_at_the_laser_and_end_at_the_points_or_max_range() -> None:
     scan = room_scan()
     scan.ranges[10] = np.nan
