@@ -39,6 +39,7 @@ from evmap.sources.sim.sonar import echo_halfwidth
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
+    from evmap.maps.planner import Point
 
 __all__ = ["MIRROR_MIN_LENGTH", "SIGHT_MARGIN", "may_stand", "mirror_echoes", "mirrored"]
 
@@ -80,17 +81,32 @@ def mirror_echoes(
     poses = {k: pose_sensed(bm, k) for ks in heard.values() for k in ks}
     # an object heard from a pose the map does not remember is kept
     image = {u.id: True for u in objects if heard[u.id] and all(poses[k] is not None for k in heard[u.id])}
+    by_pose: dict[int, list[Point]] = {}  # the objects each pose heard
+    for u in objects:
+        for k in heard[u.id]:
+            by_pose.setdefault(k, []).append(u)
+    # a path crosses a mirror only within the mirror's extent carried on (mirrored's reach), and a target's
+    # image lies no farther from the pose than twice the path: each pose meets only the mirrors and targets so near
+    carry = np.minimum(np.hypot(*(mq - mp).T), params.window_width)[:, None]
+    u_m = (mq - mp) / np.maximum(np.hypot(*(mq - mp).T), 1e-12)[:, None]
+    m_lo = np.minimum(mp - carry * u_m, mq + carry * u_m)
+    m_hi = np.maximum(mp - carry * u_m, mq + carry * u_m)
     for k, s in sorted(poses.items()):
-        mine = [u for u in objects if image.get(u.id) and k in heard[u.id]]  # not yet refuted by another pose
+        mine = [u for u in by_pose.get(k, ()) if image.get(u.id)]  # not yet refuted by another pose
         if s is None or not mine:
             continue
+        xy = np.array([u.xy for u in mine], dtype=float)
+        lo, hi = np.minimum(xy.min(axis=0), s.origin), np.maximum(xy.max(axis=0), s.origin)
+        near = np.flatnonzero(((m_lo <= hi) & (m_hi >= lo)).all(axis=1))
+        reach = 2 * float(np.hypot(*(xy - s.origin).T).max()) + params.mirror_tolerance
+        close = np.flatnonzero((np.abs(targets - s.origin) <= reach).all(axis=1))
         sonar = s.sonar.params if s.sonar is not None else None
         echo = mirrored(
             np.tile(s.origin, (len(mine), 1)),
-            np.array([u.xy for u in mine], dtype=float),
-            mp,
-            mq,
-            targets,
+            xy,
+            mp[near],
+            mq[near],
+            targets[close],
             params.mirror_tolerance,
             params.merge_radius,
             params.window_width,
