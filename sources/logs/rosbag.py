@@ -172,7 +172,8 @@ def _topics(reader: AnyReader, msgtype: str) -> list[str]:
 
 
 def _named(name: str, topics: list[str]) -> str:
-    """The topic a name stands for: a relative name (``scan``) is the global one (``/scan``) if the bag has not it."""
+    """The topic a name stands for: a relative name (``scan``) is the global one (``/scan``) where the bag has no
+    ``scan``."""
     return "/" + name if name not in topics and "/" + name in topics else name
 
 
