@@ -41,32 +41,45 @@ class Panes(NamedTuple):
 
 def pane_faces(bm: BeliefMap, objects: Iterable[str], width: float, radius: float) -> Panes:
     """The faces of the ``objects`` (ids of believed unidentified objects) toward the poses that heard them and
-    whose stripe saw through them (module doc), each pose's objects tested against its rays at once."""
+    whose stripe saw through them (module doc), every (object, pose) pair at once: the poses' returned rays, by
+    bearing, laid end to end ``4 pi`` apart and doubled over two turns, so that one ``searchsorted`` finds the
+    rays within ``max_gap`` of each object's bearing from each pose."""
     max_gap = FreeSpaceParams().max_gap
     ids = list(objects)
     xy = np.array([bm.graph.nodes[u]["xy"] for u in ids], dtype=float).reshape(-1, 2)
-    heard: dict[int, list[int]] = {}  # pose -> the objects it heard
-    for i, u in enumerate(ids):
-        for pose in heard_from(bm, u):
-            heard.setdefault(pose, []).append(i)
-    found: list[tuple[int, int, NDArray[np.float64]]] = []  # (object, pose, half the face)
-    for pose, objects_heard in heard.items():
-        s = pose_sensed(bm, pose)
-        if s is None:
-            continue
-        mine = np.array(objects_heard, dtype=np.intp)
-        d = xy[mine] - s.origin
-        n = np.hypot(*d.T)
-        bearing = np.arctan2(d[:, 1], d[:, 0])
-        ok = np.isfinite(s.range)
-        t = s.bearing[ok]
-        ends = s.origin + s.range[ok, None] * np.column_stack([np.cos(t), np.sin(t)])
-        off = (t[None] - bearing[:, None] + np.pi) % (2 * np.pi) - np.pi
-        near = np.hypot(*(ends[None] - xy[mine, None]).transpose(2, 0, 1)) <= radius
-        face = (n > 0) & ~((off >= -max_gap) & (off < max_gap) & near).any(axis=1)
-        for i, di, ni in zip(mine[face], d[face], n[face], strict=True):
-            found.append((int(i), pose, np.array([-di[1], di[0]]) / ni * width / 2))
-    found.sort(key=lambda f: (f[0], f[1]))  # by object, then pose
-    p = np.array([xy[i] - side for i, _, side in found], dtype=float).reshape(-1, 2)
-    q = np.array([xy[i] + side for i, _, side in found], dtype=float).reshape(-1, 2)
-    return Panes(p, q, np.array([ids[i] for i, _, _ in found], dtype=str))
+    heard = [(i, pose) for i, u in enumerate(ids) for pose in heard_from(bm, u)]
+    sensed = {pose: s for pose in sorted({pose for _, pose in heard}) if (s := pose_sensed(bm, pose)) is not None}
+    slot = {pose: j for j, pose in enumerate(sensed)}
+    kept = [(i, k) for i, k in heard if k in slot]  # a pose the map does not remember gives no face
+    obj, pose = np.array([i for i, _ in kept], dtype=np.intp), np.array([k for _, k in kept], dtype=np.intp)
+    at = np.array([slot[k] for _, k in kept], dtype=np.intp)
+    returned = [np.flatnonzero(np.isfinite(s.range)) for s in sensed.values()]
+    bearing = [s.bearing[k] for s, k in zip(sensed.values(), returned, strict=True)]
+    ends = np.concatenate(
+        [np.zeros((0, 2))]
+        + [
+            s.origin + s.range[k, None] * np.column_stack([np.cos(t), np.sin(t)])
+            for s, k, t in zip(sensed.values(), returned, bearing, strict=True)
+        ]
+    )
+    sizes = np.array([len(t) for t in bearing], dtype=np.intp)
+    starts = np.cumsum(sizes) - sizes
+    shift = 4 * np.pi * np.arange(len(sensed))
+    doubled = np.concatenate(
+        [np.zeros(0)] + [t + shift[j] + turn for j, t in enumerate(bearing) for turn in (0, 2 * np.pi)]
+    )
+    origin = np.array([s.origin for s in sensed.values()], dtype=float).reshape(-1, 2)
+    d = xy[obj] - origin[at]
+    n = np.hypot(*d.T)
+    lo = (np.arctan2(d[:, 1], d[:, 0]) - max_gap + np.pi) % (2 * np.pi) - np.pi + shift[at]
+    first = np.searchsorted(doubled, lo)
+    count = np.maximum(np.searchsorted(doubled, lo + 2 * max_gap) - first, 0)
+    pair = np.repeat(np.arange(len(obj)), count)
+    where = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())  # in ``doubled``
+    ray = starts[at[pair]] + (where - 2 * starts[at[pair]]) % np.maximum(sizes[at[pair]], 1)
+    seen = np.zeros(len(obj), dtype=bool)  # the stripe put a point near the object: opaque from that pose
+    seen[pair[np.hypot(*(ends[ray] - xy[obj[pair]]).T) <= radius]] = True
+    face = np.flatnonzero((n > 0) & ~seen)
+    face = face[np.lexsort((pose[face], obj[face]))]  # by object, then pose
+    side = np.column_stack([-d[face, 1], d[face, 0]]) / n[face, None] * width / 2
+    return Panes(xy[obj[face]] - side, xy[obj[face]] + side, np.array([ids[i] for i in obj[face].tolist()], dtype=str))
