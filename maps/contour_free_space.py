@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from evmap.maps.sensed import Sensed
+from evmap.maps.sensed import Sensed, rays_within
 from evmap.sources.geometry import crossings, near_segments
 from evmap.sources.params import LslParams
 
@@ -146,35 +146,23 @@ def _crossings(
     interior; kind 0 ends, 1 passes, 2 short, 3 none. ``beyond``: per pose, the rays that went on beyond their
     point (:func:`went_on`): none, where they cross a segment behind their point within range.
 
-    All poses at once: each pose's bearings, doubled over two turns, are laid end to end ``4 pi`` apart, so that
-    one sorted array and one ``searchsorted`` find every (segment, pose) pair's rays.
+    All (segment, pose) pairs at once (:func:`~evmap.maps.sensed.rays_within`).
     """
     n, m = len(p), len(poses)
     origin = np.array([s.origin for s in poses], dtype=float).reshape(-1, 2)
-    sizes, starts, bearing, rng = _laid_out(poses)
-    shift = 4 * np.pi * np.arange(m)
-    doubled = np.concatenate(
-        [np.zeros(0), *(t + shift[k] for k, s in enumerate(poses) for t in (s.bearing, s.bearing + 2 * np.pi))]
-    )
+    _, _, bearing, rng = _laid_out(poses)
     a = (p[None] - origin[:, None]).reshape(-1, 2)  # (pose, segment) pairs, pose-major
     b = (q[None] - origin[:, None]).reshape(-1, 2)
     a1, a2 = np.arctan2(a[:, 1], a[:, 0]), np.arctan2(b[:, 1], b[:, 0])
     span = (a2 - a1 + np.pi) % (2 * np.pi) - np.pi
-    lo = np.where(span >= 0, a1, a2)
-    lo = (lo + np.pi) % (2 * np.pi) - np.pi + np.repeat(shift, n)
-    first = np.searchsorted(doubled, lo)
-    last = np.searchsorted(doubled, lo + np.abs(span))
-    count = np.maximum(last - first, 0)
-    pair = np.repeat(np.arange(n * m), count)
+    lo = (np.where(span >= 0, a1, a2) + np.pi) % (2 * np.pi) - np.pi
+    pair, ray = rays_within(poses, np.repeat(np.arange(m), n), lo, np.abs(span))
     k, seg = pair // n, pair % n
-    at = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())  # in ``doubled``
-    size = np.maximum(sizes[k], 1)
-    ray = starts[k] + (at - 2 * starts[k]) % size  # ``doubled`` holds 2 * size entries a pose, in order
     r = rng[ray]
     u = np.take(np.column_stack([np.cos(bearing), np.sin(bearing)]), ray, axis=0)  # u[ray], faster
     e = b - a
     length = np.maximum(np.hypot(*e.T), 1e-12)
-    a, e, length = (np.repeat(x, count, axis=0) for x in (a, e, length))  # x[pair], faster
+    a, e, length = (np.take(x, pair, axis=0) for x in (a, e, length))
     t, along = crossings(np.zeros(2), u, a, e)  # the crossing's range along the ray, its place on the segment
     along = along * length  # in metres
     cross = u[:, 0] * e[:, 1] - u[:, 1] * e[:, 0]

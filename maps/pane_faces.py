@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps.free_space import FreeSpaceParams
-from evmap.maps.sensed import heard_from, pose_sensed
+from evmap.maps.sensed import heard_from, pose_sensed, rays_within
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
@@ -41,9 +41,8 @@ class Panes(NamedTuple):
 
 def pane_faces(bm: BeliefMap, objects: Iterable[str], width: float, radius: float) -> Panes:
     """The faces of the ``objects`` (ids of believed unidentified objects) toward the poses that heard them and
-    whose stripe saw through them (module doc), every (object, pose) pair at once: the poses' returned rays, by
-    bearing, laid end to end ``4 pi`` apart and doubled over two turns, so that one ``searchsorted`` finds the
-    rays within ``max_gap`` of each object's bearing from each pose."""
+    whose stripe saw through them (module doc), every (object, pose) pair at once: the rays within ``max_gap`` of
+    each object's bearing from each pose (:func:`~evmap.maps.sensed.rays_within`)."""
     max_gap = FreeSpaceParams().max_gap
     ids = list(objects)
     xy = np.array([bm.graph.nodes[u]["xy"] for u in ids], dtype=float).reshape(-1, 2)
@@ -53,30 +52,18 @@ def pane_faces(bm: BeliefMap, objects: Iterable[str], width: float, radius: floa
     kept = [(i, k) for i, k in heard if k in slot]  # a pose the map does not remember gives no face
     obj, pose = np.array([i for i, _ in kept], dtype=np.intp), np.array([k for _, k in kept], dtype=np.intp)
     at = np.array([slot[k] for _, k in kept], dtype=np.intp)
-    returned = [np.flatnonzero(np.isfinite(s.range)) for s in sensed.values()]
-    bearing = [s.bearing[k] for s, k in zip(sensed.values(), returned, strict=True)]
-    ends = np.concatenate(
-        [np.zeros((0, 2))]
-        + [
-            s.origin + s.range[k, None] * np.column_stack([np.cos(t), np.sin(t)])
-            for s, k, t in zip(sensed.values(), returned, bearing, strict=True)
-        ]
-    )
-    sizes = np.array([len(t) for t in bearing], dtype=np.intp)
-    starts = np.cumsum(sizes) - sizes
-    shift = 4 * np.pi * np.arange(len(sensed))
-    doubled = np.concatenate(
-        [np.zeros(0)] + [t + shift[j] + turn for j, t in enumerate(bearing) for turn in (0, 2 * np.pi)]
-    )
     origin = np.array([s.origin for s in sensed.values()], dtype=float).reshape(-1, 2)
     d = xy[obj] - origin[at]
     n = np.hypot(*d.T)
-    lo = (np.arctan2(d[:, 1], d[:, 0]) - max_gap + np.pi) % (2 * np.pi) - np.pi + shift[at]
-    first = np.searchsorted(doubled, lo)
-    count = np.maximum(np.searchsorted(doubled, lo + 2 * max_gap) - first, 0)
-    pair = np.repeat(np.arange(len(obj)), count)
-    where = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())  # in ``doubled``
-    ray = starts[at[pair]] + (where - 2 * starts[at[pair]]) % np.maximum(sizes[at[pair]], 1)
+    lo = (np.arctan2(d[:, 1], d[:, 0]) - max_gap + np.pi) % (2 * np.pi) - np.pi
+    pair, ray = rays_within(list(sensed.values()), at, lo, np.full(len(lo), 2 * max_gap))
+    ends = np.concatenate(
+        [np.zeros((0, 2))]
+        + [
+            s.origin + s.range[:, None] * np.column_stack([np.cos(s.bearing), np.sin(s.bearing)])
+            for s in sensed.values()
+        ]
+    )  # NaN where a ray returned nothing: near no object
     seen = np.zeros(len(obj), dtype=bool)  # the stripe put a point near the object: opaque from that pose
     seen[pair[np.hypot(*(ends[ray] - xy[obj[pair]]).T) <= radius]] = True
     face = np.flatnonzero((n > 0) & ~seen)

@@ -12,6 +12,7 @@ computed from them) the form that ``map.json`` keeps in its optional graph key
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -37,6 +38,7 @@ __all__ = [
     "keep_features",
     "kept_features",
     "pose_sensed",
+    "rays_within",
     "remember",
     "sensed",
     "sensed_from_json",
@@ -217,6 +219,33 @@ def heard_from(bm: BeliefMap, uid: str) -> set[int]:
 def pose_sensed(bm: BeliefMap, pose_index: int) -> Sensed | None:
     """What one pose sensed, if the map remembers it."""
     return _memory(bm).get(int(pose_index))
+
+
+def rays_within(
+    poses: Sequence[Sensed], pose: NDArray[np.intp], lo: NDArray[np.float64], width: NDArray[np.float64]
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The rays of each window ``k``: those of ``poses[pose[k]]`` whose bearing lies in ``[lo[k], lo[k] + width[k])``
+    (``lo`` in [-pi, pi), ``width`` under 2 pi), as (window, ray) pairs, ``ray`` numbering the poses' rays laid end
+    to end, pose after pose. All windows at once: each pose's bearings, doubled over two turns, are laid end to
+    end ``4 pi`` apart, so that one sorted array and one ``searchsorted`` find every window's rays.
+
+    >>> s = Sensed(0, np.zeros(2), np.array([-3.0, 0.0, 3.0]), np.ones(3), None)
+    >>> [x.tolist() for x in rays_within([s, s], np.array([0, 1]), np.array([2.9, -0.1]), np.array([0.5, 0.2]))]
+    [[0, 0, 1], [2, 0, 4]]
+    """
+    sizes = np.array([len(s.bearing) for s in poses], dtype=np.intp)
+    starts = np.cumsum(sizes) - sizes
+    shift = 4 * np.pi * np.arange(len(poses))
+    doubled = np.concatenate(
+        [np.zeros(0), *(t + shift[k] for k, s in enumerate(poses) for t in (s.bearing, s.bearing + 2 * np.pi))]
+    )
+    start = lo + shift[pose]
+    first = np.searchsorted(doubled, start)
+    count = np.maximum(np.searchsorted(doubled, start + width) - first, 0)
+    window = np.repeat(np.arange(len(lo)), count)
+    at = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())  # in ``doubled``
+    k = pose[window]
+    return window, starts[k] + (at - 2 * starts[k]) % np.maximum(sizes[k], 1)  # 2 * size entries a pose
 
 
 def _floats(values: NDArray[np.float64]) -> list[float | None]:
