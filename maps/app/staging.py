@@ -129,11 +129,13 @@ def owned_entries(directory: Path, layout: Layout) -> tuple[list[str], list[str]
     ``layout`` when all its required files are there.
 
     >>> import tempfile
-    >>> d = Path(tempfile.mkdtemp())
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> d = Path(tmp.name)
     >>> for name in ("report.json", "segments.json", "map.json", "fig2.png", "notes.txt"):
     ...     _ = (d / name).write_text("x")
     >>> owned_entries(d, RUN_LAYOUT)
     (['fig2.png', 'map.json', 'report.json', 'segments.json'], ['notes.txt'])
+    >>> tmp.cleanup()
     """
     top = sorted(p.name for p in directory.iterdir())
     marker = directory / MARKER

@@ -13,10 +13,12 @@ file and line, or the topic and stamp, of anything it cannot read.
 Examples
 --------
 >>> import tempfile, pathlib
->>> path = pathlib.Path(tempfile.mkdtemp()) / "tiny.g2o"
+>>> tmp = tempfile.TemporaryDirectory()
+>>> path = pathlib.Path(tmp.name) / "tiny.g2o"
 >>> _ = path.write_text("VERTEX_SE2 0 0 0 0\\n")
 >>> open_log(path).source == str(path), list(open_log(path))
 (True, [])
+>>> tmp.cleanup()
 """
 
 from __future__ import annotations

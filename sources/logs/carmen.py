@@ -45,11 +45,13 @@ no regular file (:func:`text_lines`, which the g2o reader reads through too).
 Examples
 --------
 >>> import tempfile, pathlib
->>> path = pathlib.Path(tempfile.mkdtemp()) / "tiny.log"
+>>> tmp = tempfile.TemporaryDirectory()
+>>> path = pathlib.Path(tmp.name) / "tiny.log"
 >>> _ = path.write_text("PARAM robot_front_laser_max 50.0 host 0\\n"
 ...     "FLASER 3 1.0 60.0 2.0 0.5 0.0 0.0 0.5 0.0 0.0 10.0 host 10.0\\n")
 >>> [(r.index, r.scan.ranges.tolist(), np.degrees(r.scan.angles).tolist()) for r in read_carmen(path)]
 [(0, [1.0, nan, 2.0], [-90.0, 0.0, 90.0])]
+>>> tmp.cleanup()
 """
 
 from __future__ import annotations

@@ -18,11 +18,13 @@ and every check of the ROBOTLASER1 reader.
 Examples
 --------
 >>> import tempfile, pathlib
->>> path = pathlib.Path(tempfile.mkdtemp()) / "tiny.g2o"
+>>> tmp = tempfile.TemporaryDirectory()
+>>> path = pathlib.Path(tmp.name) / "tiny.g2o"
 >>> _ = path.write_text("VERTEX_SE2 0 5.0 1.0 0.0\\nROBOTLASER1 0 -0.1 0.2 0.1 50 0.01 0 3 1 2 3 0 "
 ...     "10.2 0 0 10 0 0 0 0 0 0 0 7.0 host 7.0\\n")
 >>> [(r.scan.pose.round(6).tolist(), r.robot_pose.tolist()) for r in read_g2o(path)]
 [([5.2, 1.0, 0.0], [5.0, 1.0, 0.0])]
+>>> tmp.cleanup()
 """
 
 from __future__ import annotations
