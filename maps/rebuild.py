@@ -30,10 +30,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evidential import MassFunction
+from evmap.maps.affected_points import affected_points
 from evmap.maps.corners import find_corners
 from evmap.maps.merged_evidence import MergedEvidence, merged_evidence
 from evmap.maps.merging import Merged, merge_segments, related_pairs
-from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, surface_points_near, unmoved
+from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, unmoved
 from evmap.maps.running_mass import NOISE_STAGE, carried, with_running
 from evmap.maps.segments import CONSOLIDATE_POSES
 from evmap.maps.sensed import sensed
@@ -89,7 +90,7 @@ def rebuild(
             bm.set_attrs(node, xy=xy)
     fresh = [k for k in range(len(merged.groups)) if k not in refitted and k not in stays]
     if join:
-        affected = _affected_points(bm, dissolved, merged, fresh, config)
+        affected = affected_points(bm, dissolved, merged, fresh, config)
     else:  # no corners found: the dissolved lines' ends are all the points that change
         affected = {n for points in dissolved.values() for n in points}
     histories = {lid: (g.edge(*ends)["history"], bm.running_mass(lid)) for lid, ends in dissolved.items()}
@@ -175,58 +176,6 @@ def refresh_points(bm: BeliefMap, line_ids: Iterable[str], config: Config) -> No
         mass = weakest if d["kind"] == "endpoint" else with_running(weakest, bm.running_mass(n), config.rule)
         if not _same_mass(d["mass"], mass):
             bm.set_attrs(n, mass=mass)
-
-
-def _affected_points(
-    bm: BeliefMap, dissolved: dict[str, tuple[str, str]], merged: Merged, fresh: list[int], config: Config
-) -> set[str]:
-    """The points whose lines change: the dissolved lines' ends, the points where a line's end would link (as
-    corners link ends) with an end of the ``fresh`` merged lines (those not refitted in place) or of a dissolved
-    line (a corner it made with a line it shares both points with, where it had to keep a free end), and, in turn,
-    those where one would link with an end found anew at an affected point: a corner that a whole rebuild
-    would make of them is found anew with them."""
-    affected = {n for ends in dissolved.values() for n in ends}
-    old = np.array([bm.graph.edge(*ends)["fit"] for ends in dissolved.values()], dtype=float).reshape(-1, 2, 2)
-    p, q = np.concatenate([merged.p[fresh], old[:, 0]]), np.concatenate([merged.q[fresh], old[:, 1]])
-    ends, u = np.concatenate([p, q]), np.concatenate([q - p] * 2)
-    found = np.stack([ends, u / np.hypot(*u.T)[:, None]], axis=1)
-    freed = affected | _linked_points(bm, found, affected, config)
-    affected |= freed
-    while freed:
-        freed = _linked_points(bm, _line_ends(bm, freed, dissolved)[1], affected, config)
-        affected |= freed
-    return affected
-
-
-def _line_ends(bm: BeliefMap, points: Iterable[str], dissolved: Iterable[str]) -> tuple[list[str], NDArray[np.float64]]:
-    """The lines at these points but the ``dissolved``, one row each: the point, and (k, 2, 2) the line's fit end
-    there and its unit direction."""
-    g = bm.graph
-    at, rows = [], []
-    for n in sorted(points):
-        for d in g.adj[n].values():
-            if d["id"] not in dissolved:
-                fit = d["fit"]
-                e = bm.ends(d["id"]).index(n)
-                at.append(n)
-                rows.append((fit[e], (fit[1][0] - fit[0][0], fit[1][1] - fit[0][1])))
-    ends = np.array(rows, dtype=float).reshape(-1, 2, 2)
-    ends[:, 1] /= np.hypot(*ends[:, 1].T)[:, None]
-    return at, ends
-
-
-def _linked_points(bm: BeliefMap, found: NDArray[np.float64], affected: set[str], config: Config) -> set[str]:
-    """The points not ``affected`` where a line's fit end links with one of the ends ``found`` anew (from
-    :func:`_line_ends`): within the corner distance, at least the corner angle from parallel."""
-    if not len(found):
-        return set()
-    points = [n for n in surface_points_near(bm, found[:, 0], 2 * config.corners.distance) if n not in affected]
-    owner, there = _line_ends(bm, points, ())
-    if not owner:
-        return set()
-    close = np.hypot(*(there[:, None, 0] - found[None, :, 0]).transpose(2, 0, 1)) <= config.corners.distance + 1e-9
-    across = np.abs(there[:, 1] @ found[:, 1].T) <= np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
-    return {owner[i] for i in np.flatnonzero((close & across).any(axis=1))}
 
 
 def _refit_in_place(
@@ -362,18 +311,37 @@ def _attach(
 ) -> set[str]:
     """Add the lines, their ends meeting at corners if ``join`` (a corner keeps the sonar records of a removed
     corner within the corner distance; its shape as seen from ``viewpoint``, :func:`find_corners`) or free;
-    return their ids."""
-    g = bm.graph
+    return their ids. A line that would join the same two points as a longer one (two pieces of one surface, a
+    thin wedge between them) keeps both ends free, and its corners are placed without it (a corner left with one
+    line is none)."""
     fits = np.array([line.fit for line in lines]).reshape(-1, 2, 2)
     corners = find_corners(fits[:, 0], fits[:, 1], config.corners, viewpoint) if join else None
-    end_point = {(i, e): line.fixed[e] for i, line in enumerate(lines) for e in (0, 1) if line.fixed[e] is not None}
-    removed_xy = np.array([pxy for pxy, _, _ in removed], dtype=float).reshape(-1, 2)
+    end_point: dict[tuple[int, int], str | int] = {
+        (i, e): point for i, line in enumerate(lines) for e, point in enumerate(line.fixed) if point is not None
+    }
     for k, ends in enumerate(corners.ends if corners else ()):
         pairs = [tuple(pair) for pair in ends.tolist()]
-        if any(pair in end_point for pair in pairs):
-            continue  # an end already on a point outside the change stays there
+        if not any(pair in end_point for pair in pairs):  # an end already on a point outside the change stays
+            end_point.update(dict.fromkeys(pairs, k))
+    joined: set[frozenset[str | int]] = set()
+    for i in np.lexsort(([line.data["id"] for line in lines], -np.hypot(*(fits[:, 1] - fits[:, 0]).T))).tolist():
+        ends = end_point.get((i, 0)), end_point.get((i, 1))
+        if None not in ends:
+            if set(ends) in joined:
+                del end_point[i, 0], end_point[i, 1]
+            else:
+                joined.add(frozenset(ends))
+    members: dict[int, list[tuple[int, int]]] = {}
+    for pair, point in end_point.items():
+        if isinstance(point, int):
+            members.setdefault(point, []).append(pair)
+    removed_xy = np.array([pxy for pxy, _, _ in removed], dtype=float).reshape(-1, 2)
+    for k, pairs in sorted(members.items()):
+        if len(pairs) < 2:
+            del end_point[pairs[0]]
+            continue
         cid = bm.new_id("C")
-        xy = corners.xy[k]
+        xy = corners.xy[k] if len(pairs) == len(corners.ends[k]) else np.mean([fits[pair] for pair in pairs], axis=0)
         close = np.hypot(*(removed_xy - xy).T) <= config.corners.distance
         near = [removed[j][1:] for j in np.flatnonzero(close).tolist()]
         history, running = carried(bm.frame, near, config.rule)
@@ -382,15 +350,14 @@ def _attach(
             cid, xy, "corner", bm.vacuous(), history=history, shape=str(corners.shape[k]), reinforced=reinforced
         )
         bm.keep_running(cid, running)
-        for pair in pairs:
-            end_point[pair] = cid
+        end_point.update(dict.fromkeys(pairs, cid))
     added: set[str] = set()
     for i, line in enumerate(lines):
         nodes: list[str] = []
         for e in (0, 1):
             node = end_point.get((i, e))
-            if node is None or (nodes and (nodes[0] == node or g.has_edge(nodes[0], node))):
-                node = bm.new_id("E")  # a free end, or a second line between the same two points
+            if node is None:
+                node = bm.new_id("E")
                 bm.add_point(node, line.fit[e], "endpoint", line.data["mass"])  # what its line believes
             nodes.append(node)
         data = line.data
