@@ -6,7 +6,8 @@ change: the ends of the lines dissolved, the points where an end of a line found
 link ends: within the corner distance, at least the corner angle from parallel), and, in turn, those where one
 would link with an end at a point found anew. A line left free at a corner's end by a rule that looks at its
 other end too (two lines meeting at both ends, :func:`~evmap.maps.rebuild.rebuild`) is found anew at both:
-the free far end of a line at an affected point is affected where it would link with another line's end.
+the free far end of a line at an affected point is affected where it would link with another line's end, and
+so is a point where two lines from affected points end.
 """
 
 from __future__ import annotations
@@ -32,8 +33,8 @@ def affected_points(
 ) -> set[str]:
     """The points whose lines change: the dissolved lines' ends, the points where a line's end would link with an
     end of the ``fresh`` merged lines (those not refitted in place) or of a dissolved line, and, in turn, those
-    where one would link with an end found anew at an affected point, and the free far ends of the lines at an
-    affected point that would link with a line's end."""
+    where one would link with an end found anew at an affected point, the free far ends of the lines at an
+    affected point that would link with a line's end, and the points where two such lines end."""
     affected = {n for ends in dissolved.values() for n in ends}
     old = np.array([bm.graph.edge(*ends)["fit"] for ends in dissolved.values()], dtype=float).reshape(-1, 2, 2)
     p, q = np.concatenate([merged.p[fresh], old[:, 0]]), np.concatenate([merged.q[fresh], old[:, 1]])
@@ -41,26 +42,29 @@ def affected_points(
     found = np.stack([ends, u / np.hypot(*u.T)[:, None]], axis=1)
     freed = affected | _linked(bm, found, affected, config)[0]
     affected |= freed
+    lines_to: dict[str, set[str]] = {}  # a point not affected -> the lines from an affected point that end there
     while freed:
         at = _line_ends(bm, freed, dissolved)[1]
-        far, far_ends = _line_ends(bm, _far_free_ends(bm, freed, dissolved, affected), ())
+        for lid, point in _far_points(bm, freed, dissolved):
+            lines_to.setdefault(point, set()).add(lid)
+        free_ends = [n for n, lids in lines_to.items() if n not in affected and bm.graph.nodes[n]["kind"] == "endpoint"]
+        far, far_ends = _line_ends(bm, free_ends, ())
         linked, links = _linked(bm, np.concatenate([at, far_ends]), affected, config)
-        freed = linked | {far[i] for i in np.flatnonzero(links[len(at) :])}
+        shared = {n for n, lids in lines_to.items() if len(lids) > 1}  # two lines that may meet at both ends
+        freed = (linked | {far[i] for i in np.flatnonzero(links[len(at) :])} | shared) - affected
         affected |= freed
     return affected
 
 
-def _far_free_ends(bm: BeliefMap, points: Iterable[str], dissolved: Iterable[str], affected: set[str]) -> set[str]:
-    """The free end points, not ``affected``, at the other ends of the lines at these points but the dissolved."""
+def _far_points(bm: BeliefMap, points: Iterable[str], dissolved: Iterable[str]) -> list[tuple[str, str]]:
+    """(line id, the point at its other end) of each line at these points but the dissolved."""
     g = bm.graph
-    far = set()
-    for n in points:
-        for d in g.adj[n].values():
-            if d["id"] not in dissolved:
-                other = next(m for m in bm.ends(d["id"]) if m != n)
-                if g.nodes[other]["kind"] == "endpoint" and other not in affected:
-                    far.add(other)
-    return far
+    return [
+        (d["id"], next(m for m in bm.ends(d["id"]) if m != n))
+        for n in points
+        for d in g.adj[n].values()
+        if d["id"] not in dissolved
+    ]
 
 
 def _line_ends(bm: BeliefMap, points: Iterable[str], dissolved: Iterable[str]) -> tuple[list[str], NDArray[np.float64]]:
