@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from evmap.maps.corners import TURN_SHARE
 from evmap.maps.merging import Merged
 from evmap.sources.config_model import Config
 
@@ -242,11 +243,12 @@ def _corner_place(
 def _drawn_close(place: tuple[float, float], ends: list[list[float]], far: list[list[float]], cos_max: float) -> bool:
     """Whether two lines drawn from ``place`` to their ``far`` ends come within the corner angle of parallel
     (``cos_max``), or one is drawn turned from its own direction (from its end at the corner, ``ends``, to its far
-    end) by more than that angle, or to no length."""
+    end) by more than :data:`~evmap.maps.corners.TURN_SHARE` of that angle, or to no length."""
     drawn = [(x - place[0], y - place[1]) for x, y in far]
     if not all(math.hypot(*d) > 0 for d in drawn):
         return True
     w = [(dx / math.hypot(dx, dy), dy / math.hypot(dx, dy)) for dx, dy in drawn]
     own = [(fx - ex, fy - ey) for (ex, ey), (fx, fy) in zip(ends, far, strict=True)]
-    turned = any((a[0] * o[0] + a[1] * o[1]) / math.hypot(*o) < cos_max - 2e-9 for a, o in zip(w, own, strict=True))
+    cos_turn = math.cos(TURN_SHARE * math.acos(min(cos_max, 1.0)))
+    turned = any((a[0] * o[0] + a[1] * o[1]) / math.hypot(*o) < cos_turn - 2e-9 for a, o in zip(w, own, strict=True))
     return turned or any(abs(a[0] * b[0] + a[1] * b[1]) > cos_max for i, a in enumerate(w) for b in w[i + 1 :])

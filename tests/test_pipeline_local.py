@@ -95,7 +95,7 @@ def test_lines_and_corners_of_a_cluttered_log_are_those_of_every_line(kept):
     are: those ends are found anew with them; and the lines are the whole merge's."""
     run = corners_kept_run(CLUTTER_LOG) if kept else run_log(CLUTTER_LOG, load_config("default"))
     assert_lines_of_the_whole_merge(run)
-    assert assert_corners_of_every_line(run) == (0 if kept else 1)  # joined at the end: one thin wedge
+    assert_corners_of_every_line(run)
 
 
 def test_a_free_end_that_leaves_a_cluster_of_ends_lets_its_corner_be_found():
@@ -105,7 +105,7 @@ def test_a_free_end_that_leaves_a_cluster_of_ends_lets_its_corner_be_found():
     place left them free)."""
     run = corners_kept_run(FIRST_SCANS)
     assert len(run.map.poses) == 146
-    assert assert_corners_of_every_line(run) == 1  # and a thin wedge, its shorter line free at both ends
+    assert_corners_of_every_line(run)
 
 
 def test_a_log_without_sonar_leaves_line_ends_free_until_its_corners_are_joined(tmp_path):
@@ -127,7 +127,7 @@ def test_a_log_without_sonar_leaves_line_ends_free_until_its_corners_are_joined(
     assert joined == set(fits) and not bm.corners_deferred and bm.join_corners() == set()
     assert {lid: bm.graph.edge(*bm.ends(lid))["fit"] for lid in bm.line_ids()} == fits
     assert_corners_of_every_line(run)
-    assert len(bm.corners(min_belief=0)) > 50
+    assert len(bm.corners(min_belief=0)) > 30
     assert loaded.to_data()["nodes"] == bm.to_data()["nodes"]
     kept = corners_kept_run(CLUTTER_LOG).map
     assert sorted(map(tuple, fits.values())) == sorted(tuple(d["fit"]) for _, _, d in kept.graph.edges())
@@ -154,7 +154,7 @@ def assert_corners_of_every_line(run):
     thin wedge; the graph cannot hold two edges between the same two points): the shorter keeps both ends free
     and its corners are placed without it, at the mean of the others' ends (a corner left with one line is none).
     And a whole rebuild of the corners (``join_corners`` on the map saved and loaded) leaves every line's points
-    as they are. Returns how many lines meeting a longer one at both ends are free."""
+    as they are."""
     g = run.map.graph
     ids = [d["id"] for _, _, d in g.edges()]
     fits = np.array([d["fit"] for _, _, d in g.edges()])
@@ -183,7 +183,6 @@ def assert_corners_of_every_line(run):
         rebuilt = BeliefMap.load(Path(tmp) / "map.json")
     rebuilt.join_corners()
     assert line_points(rebuilt) == line_points(run.map)
-    return len(freed)
 
 
 def line_points(bm):
@@ -231,6 +230,25 @@ def laser_only(pose_index, p, q):
     none, pose = np.full(n, ""), np.full(n, pose_index)
     lsl = LslSegments(np.array(p, dtype=float), np.array(q, dtype=float), none, np.zeros(n, int), none, pose)
     return Observation(pose_index, None, lsl, robot_pose=(1.0, 1.0, 0.0))
+
+
+def test_two_lines_that_meet_at_both_ends_leave_the_shorter_free():
+    """A thin wedge: two lines 10.6 deg apart whose ends meet pairwise within the corner distance, and a third
+    line at one end (the paper's config: corners not drawn apart). The longer keeps the corner with the third,
+    placed at the mean of their ends; the shorter keeps both ends free; the wedge's other end is no corner of one
+    line (it was: the shorter drawn there, the longer drawn to it)."""
+    bm = new_map(load_config("paper"))
+    bm.update(laser_only(0, [[0, 0], [0, 0.03], [0, 0.01]], [[0.3, 0], [0.28, -0.025], [0, 0.5]]))
+    bm.join_corners()
+    g = bm.graph
+    points = {d["members"][0]: [(g.nodes[n]["kind"], tuple(g.nodes[n]["xy"])) for n in (u, v)] for u, v, d in g.edges()}
+    corner = ("corner", (0.0, 0.005))
+    assert points == {
+        0: [corner, ("endpoint", (0.3, 0.0))],
+        1: [("endpoint", (0.0, 0.03)), ("endpoint", (0.28, -0.025))],
+        2: [corner, ("endpoint", (0.0, 0.5))],
+    }
+    assert_corners_of_every_line(SimpleNamespace(map=bm, config=bm.config))
 
 
 def test_lines_a_scan_comes_near_but_leaves_as_they_are_stay_as_they_are():
