@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from evmap.maps.sensed import Sensed, rays_within
+from evmap.maps.sensed import Sensed, laid_out, rays_within
 from evmap.sources.geometry import crossings, near_segments
 from evmap.sources.params import LslParams
 
@@ -150,7 +150,7 @@ def _crossings(
     """
     n, m = len(p), len(poses)
     origin = np.array([s.origin for s in poses], dtype=float).reshape(-1, 2)
-    _, _, bearing, rng = _laid_out(poses)
+    _, _, bearing, rng = laid_out(poses)
     a = (p[None] - origin[:, None]).reshape(-1, 2)  # (pose, segment) pairs, pose-major
     b = (q[None] - origin[:, None]).reshape(-1, 2)
     a1, a2 = np.arctan2(a[:, 1], a[:, 0]), np.arctan2(b[:, 1], b[:, 0])
@@ -269,7 +269,7 @@ def stripe_edges(
     """
     out = np.ones((len(p), 2), dtype=bool)
     k = _positions(pose, poses)
-    sizes, starts, bearing, rng = _laid_out(poses)
+    sizes, starts, bearing, rng = laid_out(poses)
     rows = np.flatnonzero(k >= 0)
     rows = rows[np.argsort(k[rows], kind="stable")]  # by pose: each pose's ends are searched in its own rays
     rows = rows[sizes[k[rows]] > 0]
@@ -330,15 +330,3 @@ def _positions(pose: NDArray[np.intp], poses: Sequence[Sensed]) -> NDArray[np.in
         at = np.minimum(np.searchsorted(index[order], pose), len(index) - 1)
         k = np.where(index[order][at] == pose, order[at], -1)
     return k
-
-
-def _laid_out(
-    poses: Sequence[Sensed],
-) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
-    """The rays of the ``poses`` laid end to end: per pose its number of rays and first ray, every ray's bearing and
-    range."""
-    sizes = np.array([len(s.bearing) for s in poses], dtype=np.intp)
-    starts = np.cumsum(sizes) - sizes
-    bearing = np.concatenate([np.zeros(0), *(s.bearing for s in poses)])
-    rng = np.concatenate([np.zeros(0), *(s.range for s in poses)])
-    return sizes, starts, bearing, rng

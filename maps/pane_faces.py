@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps.free_space import FreeSpaceParams
-from evmap.maps.sensed import heard_from, pose_sensed, rays_within
+from evmap.maps.sensed import heard_from, laid_out, pose_sensed, rays_within
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
@@ -52,20 +52,17 @@ def pane_faces(bm: BeliefMap, objects: Iterable[str], width: float, radius: floa
     kept = [(i, k) for i, k in heard if k in slot]  # a pose the map does not remember gives no face
     obj, pose = np.array([i for i, _ in kept], dtype=np.intp), np.array([k for _, k in kept], dtype=np.intp)
     at = np.array([slot[k] for _, k in kept], dtype=np.intp)
-    origin = np.array([s.origin for s in sensed.values()], dtype=float).reshape(-1, 2)
+    poses = list(sensed.values())
+    origin = np.array([s.origin for s in poses], dtype=float).reshape(-1, 2)
     d = xy[obj] - origin[at]
     n = np.hypot(*d.T)
     lo = (np.arctan2(d[:, 1], d[:, 0]) - max_gap + np.pi) % (2 * np.pi) - np.pi
-    pair, ray = rays_within(list(sensed.values()), at, lo, np.full(len(lo), 2 * max_gap))
-    ends = np.concatenate(
-        [np.zeros((0, 2))]
-        + [
-            s.origin + s.range[:, None] * np.column_stack([np.cos(s.bearing), np.sin(s.bearing)])
-            for s in sensed.values()
-        ]
-    )  # NaN where a ray returned nothing: near no object
+    pair, ray = rays_within(poses, at, lo, np.full(len(lo), 2 * max_gap))
+    _, _, bearing, rng = laid_out(poses)
+    t = bearing[ray]
+    ends = origin[at[pair]] + rng[ray, None] * np.column_stack([np.cos(t), np.sin(t)])  # NaN: the ray returned nothing
     seen = np.zeros(len(obj), dtype=bool)  # the stripe put a point near the object: opaque from that pose
-    seen[pair[np.hypot(*(ends[ray] - xy[obj[pair]]).T) <= radius]] = True
+    seen[pair[np.hypot(*(ends - xy[obj[pair]]).T) <= radius]] = True
     face = np.flatnonzero((n > 0) & ~seen)
     face = face[np.lexsort((pose[face], obj[face]))]  # by object, then pose
     side = np.column_stack([-d[face, 1], d[face, 0]]) / n[face, None] * width / 2

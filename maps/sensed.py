@@ -37,6 +37,7 @@ __all__ = [
     "heard_from",
     "keep_features",
     "kept_features",
+    "laid_out",
     "pose_sensed",
     "rays_within",
     "remember",
@@ -221,20 +222,31 @@ def pose_sensed(bm: BeliefMap, pose_index: int) -> Sensed | None:
     return _memory(bm).get(int(pose_index))
 
 
+def laid_out(
+    poses: Sequence[Sensed],
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+    """The rays of the ``poses`` laid end to end: per pose its number of rays and first ray, every ray's bearing and
+    range."""
+    sizes = np.array([len(s.bearing) for s in poses], dtype=np.intp)
+    starts = np.cumsum(sizes) - sizes
+    bearing = np.concatenate([np.zeros(0), *(s.bearing for s in poses)])
+    rng = np.concatenate([np.zeros(0), *(s.range for s in poses)])
+    return sizes, starts, bearing, rng
+
+
 def rays_within(
     poses: Sequence[Sensed], pose: NDArray[np.intp], lo: NDArray[np.float64], width: NDArray[np.float64]
 ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """The rays of each window ``k``: those of ``poses[pose[k]]`` whose bearing lies in ``[lo[k], lo[k] + width[k])``
     (``lo`` in [-pi, pi), ``width`` under 2 pi), as (window, ray) pairs, ``ray`` numbering the poses' rays laid end
-    to end, pose after pose. All windows at once: each pose's bearings, doubled over two turns, are laid end to
+    to end, pose after pose (:func:`laid_out`). All windows at once: each pose's bearings, doubled over two turns, are laid end to
     end ``4 pi`` apart, so that one sorted array and one ``searchsorted`` find every window's rays.
 
     >>> s = Sensed(0, np.zeros(2), np.array([-3.0, 0.0, 3.0]), np.ones(3), None)
     >>> [x.tolist() for x in rays_within([s, s], np.array([0, 1]), np.array([2.9, -0.1]), np.array([0.5, 0.2]))]
     [[0, 0, 1], [2, 0, 4]]
     """
-    sizes = np.array([len(s.bearing) for s in poses], dtype=np.intp)
-    starts = np.cumsum(sizes) - sizes
+    sizes, starts, _, _ = laid_out(poses)
     shift = 4 * np.pi * np.arange(len(poses))
     doubled = np.concatenate(
         [np.zeros(0), *(t + shift[k] for k, s in enumerate(poses) for t in (s.bearing, s.bearing + 2 * np.pi))]
