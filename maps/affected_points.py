@@ -42,15 +42,18 @@ def affected_points(
     found = np.stack([ends, u / np.hypot(*u.T)[:, None]], axis=1)
     freed = affected | _linked(bm, found, affected, config)[0]
     affected |= freed
-    lines_to: dict[str, set[str]] = {}  # a point not affected -> the lines from an affected point that end there
+    lines_to: dict[str, set[str]] = {}  # a point -> the lines from affected points that end there
     while freed:
         at = _line_ends(bm, freed, dissolved)[1]
+        reached = set()  # the far points reached anew (those reached before were checked then)
         for lid, point in _far_points(bm, freed, dissolved):
-            lines_to.setdefault(point, set()).add(lid)
-        free_ends = [n for n, lids in lines_to.items() if n not in affected and bm.graph.nodes[n]["kind"] == "endpoint"]
+            if point not in affected:
+                lines_to.setdefault(point, set()).add(lid)
+                reached.add(point)
+        free_ends = sorted(n for n in reached if bm.graph.nodes[n]["kind"] == "endpoint")
         far, far_ends = _line_ends(bm, free_ends, ())
         linked, links = _linked(bm, np.concatenate([at, far_ends]), affected, config)
-        shared = {n for n, lids in lines_to.items() if len(lids) > 1}  # two lines that may meet at both ends
+        shared = {n for n in reached if len(lines_to[n]) > 1}  # two lines that may meet at both ends
         freed = (linked | {far[i] for i in np.flatnonzero(links[len(at) :])} | shared) - affected
         affected |= freed
     return affected
