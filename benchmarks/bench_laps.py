@@ -5,7 +5,7 @@ into one map lap after lap, each pass a new pose of the map (its own pose
 index), with the same readings. Printed per lap: the median CPU time of an
 update, the map's lines and stored segments; then the ratio of the last lap's
 median to that of the first lap after the sensed features' window is full
-(:data:`~evmap.maps.noise.LATEST_POSES` poses): an update costs what a place
+(:data:`~evmap.maps.sensed.LATEST_POSES` poses): an update costs what a place
 holds, not how often it was seen (target: about 1).
 
     .venv/bin/python benchmarks/bench_laps.py [--laps 20]
@@ -21,8 +21,8 @@ import time
 
 from evmap import configs
 from evmap.maps.belief_map import new_map
-from evmap.maps.noise import LATEST_POSES
 from evmap.maps.observation import observe
+from evmap.maps.sensed import LATEST_POSES
 from evmap.sources.config import load_config
 from evmap.sources.sim.scenario import load_scenario
 from evmap.sources.sim.world import World

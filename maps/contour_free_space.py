@@ -16,7 +16,7 @@ the pose), each ray is one of:
   segments behind that point.
 
 The poses are those whose readings reach the segment, the latest
-:data:`~evmap.maps.noise.LATEST_POSES` of them (:func:`evmap.maps.noise.judge`).
+:data:`~evmap.maps.sensed.LATEST_POSES` of them (:func:`evmap.maps.noise.judge`).
 Two features come of it (:func:`ray_features`):
 
 - ``contour_free``: ``contradicted`` when rays of any pose, the segment's own

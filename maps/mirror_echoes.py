@@ -21,12 +21,12 @@ square (a reading aimed within the half-width of the foot came back within
 ``merge_radius`` of its distance: glass carrying the mirror on would have
 answered); and the target is in sight from where the path meets the mirror. One
 explained from every pose that heard it is removed (:func:`mirror_echoes`, called
-by :func:`evmap.maps.unidentified.drop_explained`).
+by :func:`evmap.maps.explained_objects.drop_explained`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -39,7 +39,6 @@ from evmap.sources.sim.sonar import echo_halfwidth
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
-    from evmap.maps.planner import Point
 
 __all__ = ["MIRROR_MIN_LENGTH", "SIGHT_MARGIN", "may_stand", "mirror_echoes", "mirrored"]
 
@@ -56,50 +55,57 @@ def mirror_echoes(
     config: Config,
     believed: float,
     panes: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    objects: Iterable[str] | None = None,
 ) -> list[str]:
-    """The unidentified objects that are, from every pose that heard them, the mirror image of a believed corner,
-    free end or object in the line through a believed map line or a pane's face (module doc; believed: Bel(real) at
-    least ``believed``; ``panes``: the faces' ends p and q, (F, 2) each). None when
-    ``unidentified.mirror_tolerance`` is 0."""
+    """The unidentified objects (of ``objects``, ids; every one when None) that are, from every pose that heard them
+    (:func:`~evmap.maps.sensed.heard_from`), the mirror image of a believed corner, free end or object in the line
+    through a believed map line or a pane's face (module doc; believed: Bel(real) at least ``believed``; ``panes``:
+    the faces' ends p and q, (F, 2) each). The map is looked up near the poses and the objects they heard only. None
+    when ``unidentified.mirror_tolerance`` is 0."""
     params = config.unidentified
-    objects = bm.unidentified() if params.mirror_tolerance > 0 else []
-    if not objects:
+    if params.mirror_tolerance <= 0:
         return []
-    g, lines = bm.graph, bm.lines(believed)
-    free_ends = [xy for ln in lines for n, xy in ((ln.u, ln.p), (ln.v, ln.q)) if g.nodes[n]["kind"] == "endpoint"]
-    others = [u.xy for u in bm.unidentified(believed)]  # pillars and corners the map holds as objects
-    targets = np.array([c.xy for c in bm.corners(believed)] + free_ends + others, dtype=float).reshape(-1, 2)
-    p = np.array([ln.p for ln in lines], dtype=float).reshape(-1, 2)
-    q = np.array([ln.q for ln in lines], dtype=float).reshape(-1, 2)
+    ids = [u.id for u in bm.unidentified()] if objects is None else sorted(objects)
+    g = bm.graph
+    heard = {uid: heard_from(bm, uid) for uid in ids}
+    poses = {k: pose_sensed(bm, k) for ks in heard.values() for k in ks}
+    # an object heard from a pose the map does not remember is kept
+    image = {uid: True for uid in ids if heard[uid] and all(poses[k] is not None for k in heard[uid])}
+    by_pose: dict[int, list[str]] = {}  # the objects each pose heard, of those judged
+    for uid in image:
+        for k in heard[uid]:
+            by_pose.setdefault(k, []).append(uid)
+    if not by_pose:
+        return []
+    # a path crosses a mirror only within the mirror's extent carried on (mirrored's reach), and a target's image
+    # lies no farther from the pose than twice the path: each pose meets only the mirrors and targets so near
+    reach, boxes = {}, []
+    for k, mine in by_pose.items():
+        origin = poses[k].origin  # type: ignore[union-attr]
+        xy = np.array([g.nodes[uid]["xy"] for uid in mine], dtype=float)
+        reach[k] = 2 * float(np.hypot(*(xy - origin).T).max()) + params.mirror_tolerance
+        boxes.append((*(origin - reach[k]), *(origin + reach[k])))
+    p, q, targets = _near_map(bm, np.array(boxes), believed)
     fp, fq = panes if panes is not None else (p[:0], q[:0])
     mp, mq = np.concatenate([p, fp]), np.concatenate([q, fq])
     long = np.hypot(*(mq - mp).T) >= MIRROR_MIN_LENGTH
     mp, mq = mp[long], mq[long]
     if not len(targets) or not len(mp):
         return []
-    heard = {u.id: heard_from(bm, u.id) for u in objects}
-    poses = {k: pose_sensed(bm, k) for ks in heard.values() for k in ks}
-    # an object heard from a pose the map does not remember is kept
-    image = {u.id: True for u in objects if heard[u.id] and all(poses[k] is not None for k in heard[u.id])}
-    by_pose: dict[int, list[Point]] = {}  # the objects each pose heard
-    for u in objects:
-        for k in heard[u.id]:
-            by_pose.setdefault(k, []).append(u)
-    # a path crosses a mirror only within the mirror's extent carried on (mirrored's reach), and a target's
-    # image lies no farther from the pose than twice the path: each pose meets only the mirrors and targets so near
     carry = np.minimum(np.hypot(*(mq - mp).T), params.window_width)[:, None]
     u_m = (mq - mp) / np.maximum(np.hypot(*(mq - mp).T), 1e-12)[:, None]
     m_lo = np.minimum(mp - carry * u_m, mq + carry * u_m)
     m_hi = np.maximum(mp - carry * u_m, mq + carry * u_m)
-    for k, s in sorted(poses.items()):
-        mine = [u for u in by_pose.get(k, ()) if image.get(u.id)]  # not yet refuted by another pose
-        if s is None or not mine:
+    for k in sorted(by_pose):
+        s = poses[k]
+        assert s is not None
+        mine = [uid for uid in by_pose[k] if image[uid]]  # not yet refuted by another pose
+        if not mine:
             continue
-        xy = np.array([u.xy for u in mine], dtype=float)
+        xy = np.array([g.nodes[uid]["xy"] for uid in mine], dtype=float)
         lo, hi = np.minimum(xy.min(axis=0), s.origin), np.maximum(xy.max(axis=0), s.origin)
         near = np.flatnonzero(((m_lo <= hi) & (m_hi >= lo)).all(axis=1))
-        reach = 2 * float(np.hypot(*(xy - s.origin).T).max()) + params.mirror_tolerance
-        close = np.flatnonzero((np.abs(targets - s.origin) <= reach).all(axis=1))
+        close = np.flatnonzero((np.abs(targets - s.origin) <= reach[k]).all(axis=1))
         sonar = s.sonar.params if s.sonar is not None else None
         echo = mirrored(
             np.tile(s.origin, (len(mine), 1)),
@@ -114,9 +120,26 @@ def mirror_echoes(
             walls=(p, q),
             echoes=None if s.sonar is None else (s.sonar.angles, s.sonar.ranges),
         )
-        for u, e in zip(mine, echo.tolist(), strict=True):
-            image[u.id] = e
+        for uid, e in zip(mine, echo.tolist(), strict=True):
+            image[uid] = e
     return sorted(uid for uid, found in image.items() if found)
+
+
+def _near_map(
+    bm: BeliefMap, boxes: NDArray[np.float64], believed: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The believed lines (ends p, q, (L, 2) each) whose boxes meet one of the ``boxes`` ((n, 4)), and the targets
+    (T, 2) among them: the believed corners and objects, and the believed lines' free ends."""
+    g = bm.graph
+    found = sorted(bm.near(boxes))
+    lines = [bm.ends(n) for n in found if bm.is_line(n) and bm.mass(n).belief("real") >= believed]
+    points = [n for n in found if not bm.is_line(n) and g.nodes[n]["kind"] in ("corner", "unidentified")]
+    free = [n for ends in lines for n in ends if g.nodes[n]["kind"] == "endpoint"]
+    held = [n for n in points if bm.mass(n).belief("real") >= believed]
+    p = np.array([g.nodes[a]["xy"] for a, _ in lines], dtype=float).reshape(-1, 2)
+    q = np.array([g.nodes[b]["xy"] for _, b in lines], dtype=float).reshape(-1, 2)
+    targets = np.array([g.nodes[n]["xy"] for n in held + free], dtype=float).reshape(-1, 2)
+    return p, q, targets
 
 
 def mirrored(

@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from evidential import combine_batch
 from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally, stripe_edges, went_on
 from evmap.maps.merging import related_pairs
-from evmap.maps.sensed import SENSED_FEATURES, Sensed, keep_features, kept_features, sensed_near
+from evmap.maps.sensed import LATEST_POSES, SENSED_FEATURES, Sensed, keep_features, kept_features, sensed_near
 from evmap.maps.sonar_forward import SonarForwardParams, free_ends, sonar_forward
 from evmap.sources.config_model import Config
 from evmap.sources.params import MergeParams
@@ -32,7 +32,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "COMPUTED",
-    "LATEST_POSES",
     "NoiseEvidence",
     "judge",
     "noise_evidence",
@@ -43,10 +42,6 @@ __all__ = [
 
 COMPUTED = ("relation", "length", "lsl_other_poses", "contour_free", "lsl_persistence", "sonar_forward")
 """The features the pipeline computes for the noise-elimination sources (an observation brings any others)."""
-
-LATEST_POSES = 16
-"""The features of the sensed readings judge a segment by the latest poses whose readings reach it, at most
-this many (a scenario has at most 10 poses: all of them; a robot log passes the same place hundreds of times)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -123,7 +118,7 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> NDArray[np.in
     (:mod:`evmap.maps.sensed`) are computed when a source reads them:
     ``contour_free`` and ``lsl_persistence`` (:mod:`evmap.maps.contour_free_space`)
     and ``sonar_forward`` (:mod:`evmap.maps.sonar_forward`), from the readings of
-    the latest :data:`LATEST_POSES` poses that reach the segments.
+    the latest :data:`~evmap.maps.sensed.LATEST_POSES` poses that reach the segments.
 
     Rays of a sensor that reports every surface a ray lit go on beyond points on the segments judged noise
     (:func:`~evmap.maps.contour_free_space.went_on`); when this judgement finds more of them noise, the
@@ -177,7 +172,7 @@ def _verdicts(bm: BeliefMap, ids: NDArray[np.intp]) -> list[NDArray[np.generic]]
 
 def settled(bm: BeliefMap, rows: NDArray[np.intp]) -> NDArray[np.bool_]:
     """Which of the map's stored segments ``rows`` are settled: eliminated, and by poses before the map's latest
-    :data:`LATEST_POSES`. Noise for good: never judged again, nor evidence for the segments judged (another
+    :data:`~evmap.maps.sensed.LATEST_POSES`. Noise for good: never judged again, nor evidence for the segments judged (another
     pose's segment on one, or one continuing its end, counts only if it is not settled), so that a place passed
     again and again does not pile up its phantoms in every lookup."""
     store = bm.segments

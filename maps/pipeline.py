@@ -48,6 +48,7 @@ import shapely
 from numpy.typing import NDArray
 
 from evmap.maps.contour_free_space import RayParams, ray_tally
+from evmap.maps.explained_objects import drop_explained
 from evmap.maps.map_json import gc_paused
 from evmap.maps.merging import related_pairs
 from evmap.maps.noise import COMPUTED, judge, unsettled
@@ -56,7 +57,7 @@ from evmap.maps.rebuild import rebuild, refresh_points
 from evmap.maps.reinforcement import reinforce
 from evmap.maps.sensed import Sensed, features_checkpoint, forget, pose_sensed, remember
 from evmap.maps.simulated_sonar import check_sonar
-from evmap.maps.unidentified import add_unidentified, drop_explained
+from evmap.maps.unidentified import add_unidentified
 from evmap.sources.config_model import Config
 from evmap.sources.open_space import open_space
 from evmap.sources.rcd import Rcds, extract_rcds
@@ -183,7 +184,7 @@ def touched_segments(
     open space's box, and those that at least ``min_passes`` of the new rays
     pass through, are all: what the observation touches, at any map size. A
     segment eliminated by the map's poses before the latest
-    :data:`~evmap.maps.noise.LATEST_POSES` is settled: noise for good, not judged
+    :data:`~evmap.maps.sensed.LATEST_POSES` is settled: noise for good, not judged
     again (a place passed again and again does not pile up its phantoms' work).
     """
     store = bm.segments

@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from evmap.maps.observation import Observation
 
 __all__ = [
+    "LATEST_POSES",
     "SENSED_FEATURES",
     "SENSED_KEY",
     "Sensed",
@@ -49,6 +50,11 @@ __all__ = [
 
 SENSED_KEY = "sensed"
 """The graph attribute of ``map.json`` that keeps what the poses sensed (optional)."""
+
+LATEST_POSES = 16
+"""A segment is judged by the latest poses whose readings reach it, an unidentified object by the latest poses
+that heard it: at most this many (a scenario has at most 10 poses: all of them; a robot log passes the same place
+hundreds of times)."""
 
 SENSED_FEATURES = {"contour_free": "clear", "lsl_persistence": "unobserved", "sonar_forward": "silent"}
 """The features computed from the sensed readings, and the value that is no evidence."""
@@ -211,10 +217,11 @@ def sensed_near(bm: BeliefMap, bounds: tuple[float, float, float, float], reach:
     return [poses[k] for k in near.tolist()]
 
 
-def heard_from(bm: BeliefMap, uid: str) -> set[int]:
-    """The poses whose evidence the history of the map object ``uid`` records (the poses that heard an
-    unidentified object)."""
-    return {r["pose"] for r in bm.graph.nodes[uid].get("history", ()) if "pose" in r}
+def heard_from(bm: BeliefMap, uid: str) -> list[int]:
+    """The latest :data:`LATEST_POSES` poses (by pose index, ascending) whose evidence the history of the map
+    object ``uid`` records: the poses that judge an unidentified object (a place passed again and again is not
+    judged from every pass)."""
+    return sorted({r["pose"] for r in bm.graph.nodes[uid].get("history", ()) if "pose" in r})[-LATEST_POSES:]
 
 
 def pose_sensed(bm: BeliefMap, pose_index: int) -> Sensed | None:

@@ -18,7 +18,7 @@ through the surface the stripe measured, so the echo is a multiple reflection.
 An RCD whose whole arc is explained makes no object; one beside a wall (a
 window in it) makes its object on the part beside the line. An object that a
 believed line comes to explain as later poses extend the lines is removed
-(:func:`drop_explained`).
+(:func:`evmap.maps.explained_objects.drop_explained`).
 
 With ``unidentified.masked_aim``, an object is placed where the sonar model
 says its target lies (:func:`reflector_bearings`), not at its RCD's direction:
@@ -33,13 +33,13 @@ stripe goes through it, the sound does not). An object
 whose every path to the poses that heard it crosses another object's pane, and
 lies more than ``merge_radius`` beyond it, came back through that pane: a
 double bounce off the glass, placed along its first leg. It is removed
-(:func:`drop_explained`, :func:`behind_panes`).
+(:mod:`evmap.maps.explained_objects`).
 
 With ``unidentified.behind_depth``, objects are judged again as lines become
 believed: one lying more than that beyond the stripe's contour
 (:func:`evmap.maps.stripe_contour.stripe_bound`, as ``behind_contour``) of every
 pose that heard it is a multiple reflection made before the lines it lies behind
-were believed, and is removed (:func:`behind_stripes`; only the objects the
+were believed, and is removed (:func:`~evmap.maps.explained_objects.behind_stripes`; only the objects the
 update's changed lines may hide are judged).
 
 With ``unidentified.mirror_tolerance``, an object at the mirror image of a
@@ -50,7 +50,6 @@ and is removed (:mod:`evmap.maps.mirror_echoes`).
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -59,21 +58,19 @@ from numpy.typing import NDArray
 
 from evidential import MassFunction
 from evmap.maps.free_space import FreeSpaceParams
-from evmap.maps.mirror_echoes import mirror_echoes
-from evmap.maps.pane_faces import Panes, pane_faces
-from evmap.maps.sensed import Sensed, heard_from, pose_sensed
+from evmap.maps.sensed import pose_sensed
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.maps.stripe_contour import stripe_bound
 from evmap.sources.config_model import Config
-from evmap.sources.geometry import line_distances, point_segment_distances
-from evmap.sources.params import SonarParams, UnidentifiedParams
+from evmap.sources.geometry import point_segment_distances
+from evmap.sources.params import SonarParams
 from evmap.sources.rcd import TYPE_II, TYPE_IV, TYPE_NAMES, Rcds
 from evmap.sources.sim.sonar import echo_halfwidth
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["BELIEVED", "add_unidentified", "behind_panes", "behind_stripes", "drop_explained", "reflector_bearings"]
+__all__ = ["BELIEVED", "add_unidentified", "reflector_bearings"]
 
 BELIEVED = 0.5
 """A map line with Bel(real) at least this explains the echoes on it (``unidentified.explained_distance``)."""
@@ -132,170 +129,6 @@ def add_unidentified(
             bm.fold(node, mass, record)
         done.append(node)
     return done
-
-
-def drop_explained(bm: BeliefMap, config: Config, changed: Iterable[str] | None = None) -> list[str]:
-    """Remove the unidentified objects a believed line now explains (within ``unidentified.explained_distance``),
-    those behind another object's pane (``unidentified.pane_width``, :func:`behind_panes`), those behind the
-    stripe of every pose that heard them (``unidentified.behind_depth``, :func:`behind_stripes`; the objects
-    the lines ``changed`` may hide, every object when None), and the mirror images of believed corners, wall
-    ends and objects in believed lines and panes (``unidentified.mirror_tolerance``,
-    :func:`~evmap.maps.mirror_echoes.mirror_echoes`).
-
-    An object placed where the map had no believed line may find one there as later
-    poses extend or confirm the lines: its echo is that line's, or it lies behind the
-    line, or at the image of a corner in it. A pane heard by a later pose may stand between
-    an object and every pose that heard it. Nothing is removed when ``explained_distance``,
-    ``pane_width``, ``behind_depth`` and ``mirror_tolerance`` are 0 (the paper's method).
-    Returns the removed ids.
-    """
-    removed = _on_lines(bm, config.unidentified.explained_distance)
-    for uid in removed:
-        bm.remove_point(uid)
-    panes = _panes(bm, config)
-    hidden = behind_panes(bm, config, panes)
-    for uid in hidden:
-        bm.remove_point(uid)
-    behind = behind_stripes(bm, config, changed)
-    for uid in behind:
-        bm.remove_point(uid)
-    glass = None  # glass heard square mirrors too: the same faces, less those of the objects removed
-    if panes is not None and config.unidentified.mirror_tolerance > 0:
-        kept = panes.without(hidden + behind)
-        glass = kept.p, kept.q
-    mirrors = mirror_echoes(bm, config, BELIEVED, glass)
-    for uid in mirrors:
-        bm.remove_point(uid)
-    return removed + hidden + behind + mirrors
-
-
-def behind_stripes(bm: BeliefMap, config: Config, changed: Iterable[str] | None = None) -> list[str]:
-    """The unidentified objects more than ``unidentified.behind_depth`` beyond the stripe's contour
-    (:func:`~evmap.maps.stripe_contour.stripe_bound` on the believed lines) of every pose that heard them.
-
-    A line believed after an object was made may show it to be a multiple reflection: the
-    sound came back from behind a surface the stripe measured. Only the objects that a
-    believed line of ``changed`` (ids; None: every line) may hide are judged: a path from
-    a pose that heard one to it passes within the contour's margin of the line, carried on
-    at both ends by ``window_width`` (a chord across a pane continues the wall). An object
-    a pose heard that the map does not remember the readings of is kept. None when
-    ``behind_depth`` is 0.
-    """
-    params = config.unidentified
-    if params.behind_depth <= 0:
-        return []
-    ids = bm.line_ids() if changed is None else (i for i in changed if i in bm and bm.is_line(i))
-    p, q = _believed_ends(bm, ids)
-    if not len(p):
-        return []
-    g, margin = bm.graph, FreeSpaceParams().margin
-    d = (q - p) / np.maximum(np.hypot(*(q - p).T), 1e-12)[:, None] * params.window_width
-    p, q = p - d, q + d
-    far = max(config.sensors.sonar.max_range, config.sensors.lsl.max_range) + params.merge_radius
-    near = bm.near(np.hstack([np.minimum(p, q) - far, np.maximum(p, q) + far]), "points")
-    poses: dict[int, Sensed | None] = {}
-    pairs = []  # (object, its xy, pose) of every pose that heard an object near
-    for uid in sorted(near):
-        if g.nodes[uid]["kind"] != "unidentified":
-            continue
-        heard = sorted(heard_from(bm, uid))
-        for k in heard:
-            if k not in poses:
-                poses[k] = pose_sensed(bm, k)
-        if heard and all(poses[k] is not None for k in heard):  # else a pose it cannot judge: kept
-            xy = np.asarray(g.nodes[uid]["xy"], dtype=float)
-            pairs.extend((uid, xy, k) for k in heard)
-    if not pairs:
-        return []
-    paths = shapely.linestrings([[poses[k].origin, xy] for _, xy, k in pairs])
-    walls = shapely.linestrings(np.stack([p, q], axis=1))
-    crossing, _ = shapely.STRtree(walls).query(paths, predicate="dwithin", distance=margin)
-    judged = {pairs[i][0] for i in crossing.tolist()}
-    bounds: dict[int, shapely.Geometry | None] = {}
-    inside: set[str] = set()
-    for uid, xy, k in pairs:
-        if uid not in judged or uid in inside:
-            continue
-        pose = poses[k]
-        assert pose is not None
-        if k not in bounds:
-            bounds[k] = _pose_bound(bm, pose, params, far)
-        to = xy - pose.origin
-        n = float(np.hypot(*to))
-        back = pose.origin + to * max(n - params.behind_depth - margin, 0.0) / max(n, 1e-12)
-        if bounds[k] is None or shapely.contains_xy(bounds[k], *back):
-            inside.add(uid)
-    return sorted(judged - inside)
-
-
-def _pose_bound(bm: BeliefMap, s: Sensed, params: UnidentifiedParams, far: float) -> shapely.Geometry | None:
-    """The contour of the pose ``s`` on the believed lines within ``far`` of it, out to ``far``."""
-    p, q = _believed_ends(bm, bm.near((*(s.origin - far), *(s.origin + far)), "lines"))
-    return stripe_bound(s, p, q, params, far + 1.0)
-
-
-def _believed_ends(bm: BeliefMap, ids: Iterable[str]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The end points p, q ((L, 2) each, in id order) of the lines ``ids`` whose Bel(real) is at least
-    :data:`BELIEVED`."""
-    g = bm.graph
-    ends = [bm.ends(i) for i in sorted(ids) if bm.mass(i).belief("real") >= BELIEVED]
-    p = np.array([g.nodes[a]["xy"] for a, _ in ends], dtype=float).reshape(-1, 2)
-    q = np.array([g.nodes[b]["xy"] for _, b in ends], dtype=float).reshape(-1, 2)
-    return p, q
-
-
-def _panes(bm: BeliefMap, config: Config) -> Panes | None:
-    """The faces of the believed objects (:func:`~evmap.maps.pane_faces.pane_faces`); None when ``pane_width`` is 0."""
-    params = config.unidentified
-    if params.pane_width <= 0:
-        return None
-    return pane_faces(bm, [u.id for u in bm.unidentified(BELIEVED)], params.pane_width, params.merge_radius)
-
-
-def behind_panes(bm: BeliefMap, config: Config, panes: Panes | None = None) -> list[str]:
-    """The unidentified objects whose every path to the poses that heard them crosses another object's pane.
-
-    A pane is a face ``unidentified.pane_width`` across, square to the bearing from a pose
-    that heard the object, of each object believed at least :data:`BELIEVED` that the
-    pose's stripe saw through (:func:`~evmap.maps.pane_faces.pane_faces`; ``panes``, or found anew). An object
-    crosses one when the segment from a pose's sensor to it meets the face and it lies more than
-    ``unidentified.merge_radius`` beyond the face's line. None when ``pane_width`` is 0.
-    """
-    params = config.unidentified
-    panes = panes if panes is not None else _panes(bm, config)
-    if panes is None or not len(panes.p):
-        return []
-    fp, fq = panes.p, panes.q
-    ids, xy, start = [], [], []
-    for u in bm.unidentified():
-        for pose in sorted(heard_from(bm, u.id)):
-            if (s := pose_sensed(bm, pose)) is not None:
-                ids.append(u.id)
-                xy.append(u.xy)
-                start.append(s.origin)
-    if not ids:
-        return []
-    a, b = np.array(start, dtype=float), np.array(xy, dtype=float)
-    path, face = shapely.STRtree(shapely.linestrings(np.stack([fp, fq], axis=1))).query(
-        shapely.linestrings(np.stack([a, b], axis=1)), predicate="intersects"
-    )
-    blocked = np.zeros(len(ids), dtype=bool)
-    blocked[path[line_distances(b[path], fp[face], fq[face]) > params.merge_radius]] = True
-    path_ids = np.array(ids)
-    return sorted(set(path_ids[blocked].tolist()) - set(path_ids[~blocked].tolist()))
-
-
-def _on_lines(bm: BeliefMap, distance: float) -> list[str]:
-    """The unidentified objects within ``distance`` of a believed map line (none when ``distance`` is 0)."""
-    if distance <= 0:
-        return []
-    found = []
-    for u in bm.unidentified():
-        x, y = u.xy
-        p, q = _believed_ends(bm, bm.near((x - distance, y - distance, x + distance, y + distance), "lines"))
-        if len(p) and point_segment_distances(np.array([x, y]), p, q).min() <= distance:
-            found.append(u.id)
-    return found
 
 
 ARC_SAMPLES = 9

@@ -286,7 +286,7 @@ def test_no_unidentified_object_is_placed_beyond_the_stripe_the_map_believes() -
 def test_an_unidentified_object_a_believed_line_comes_to_explain_is_removed() -> None:
     from evidential import MassFunction
     from evmap.maps import new_map
-    from evmap.maps.unidentified import drop_explained
+    from evmap.maps.explained_objects import drop_explained
 
     for name, dropped in (("default", ["U1"]), ("paper", [])):
         bm = new_map(load_config(name))

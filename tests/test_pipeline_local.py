@@ -17,11 +17,11 @@ from evmap.maps.belief_map import BeliefMap, new_map
 from evmap.maps.corners import find_corners
 from evmap.maps.log_observation import observation_from_log
 from evmap.maps.merging import merge_segments
-from evmap.maps.noise import LATEST_POSES, judge, settled
+from evmap.maps.noise import judge, settled
 from evmap.maps.observation import Observation, observe
 from evmap.maps.pipeline import touched_segments
 from evmap.maps.rebuild import rebuild
-from evmap.maps.sensed import pose_sensed, remember
+from evmap.maps.sensed import LATEST_POSES, pose_sensed, remember
 from evmap.sources.config import load_config
 from evmap.sources.logs import open_log
 from evmap.sources.logs.scan import LaserScan, LogRecord

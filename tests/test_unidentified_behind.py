@@ -11,9 +11,9 @@ import shapely
 
 from evidential import MassFunction
 from evmap.maps import new_map
-from evmap.maps.sensed import Sensed, remember, sensed
+from evmap.maps.explained_objects import behind_stripes, drop_explained, judged_objects
+from evmap.maps.sensed import LATEST_POSES, Sensed, heard_from, remember, sensed
 from evmap.maps.stripe_contour import stripe_bound
-from evmap.maps.unidentified import behind_stripes, drop_explained
 from evmap.sources.config import config_from_data, load_config
 
 BELIEVED = {"real": 0.6, "real|noise": 0.4}
@@ -103,3 +103,23 @@ def test_behind_depth_is_checked() -> None:
     data["unidentified"]["behind_depth"] = -1.0
     with pytest.raises(Exception, match="behind_depth"):
         config_from_data(data, "bad")
+
+
+def test_objects_the_latest_poses_did_not_hear_are_settled() -> None:
+    """Past :data:`LATEST_POSES` poses, an update judges only the objects one of the latest poses heard, each from
+    the latest poses that heard it: an update costs what the robot's place holds, not the map."""
+    bm = _map()
+    for k in range(LATEST_POSES + 2):
+        bm.add_pose(k)
+        if k:
+            _pose(bm, k, (0.0, 0.0), _wall_rays((0.0, 0.0), 2.0))
+    _object(bm, "old", (4.0, 0.5), poses=(0,))  # behind the wall, heard before the latest poses
+    _object(bm, "new", (4.0, -0.5), poses=(0, LATEST_POSES + 1))
+    _object(bm, "often", (4.0, 1.0), poses=range(LATEST_POSES + 2))
+    assert heard_from(bm, "often") == list(range(2, LATEST_POSES + 2))
+    assert judged_objects(bm, bm.config) == ["new", "often"]
+    _believe(bm)
+    assert drop_explained(bm, bm.config, {"L"}) == ["new", "often"]
+    assert [u.id for u in bm.unidentified()] == ["old"]  # settled: kept as it is
+    bm.fold("old", MassFunction(bm.frame, DOUBTED), {"pose": LATEST_POSES + 1})  # heard again: judged again
+    assert drop_explained(bm, bm.config, {"L"}) == ["old"]

@@ -10,10 +10,10 @@ import pytest
 
 from evidential import MassFunction
 from evmap.maps import new_map
+from evmap.maps.explained_objects import drop_explained
 from evmap.maps.mirror_echoes import MIRROR_MIN_LENGTH, mirror_echoes
 from evmap.maps.sensed import remember
 from evmap.maps.unidentified import BELIEVED as BELIEF
-from evmap.maps.unidentified import drop_explained
 from evmap.sources.config import config_from_data, load_config
 from evmap.sources.params import SonarParams
 from evmap.sources.readings import SonarScan

@@ -8,9 +8,9 @@ import pytest
 from evidential import MassFunction
 from evmap import configs
 from evmap.maps import new_map
+from evmap.maps.explained_objects import behind_panes, drop_explained
 from evmap.maps.observation import observe
 from evmap.maps.sensed import remember, sensed
-from evmap.maps.unidentified import behind_panes, drop_explained
 from evmap.sources.config import config_from_data, load_config
 from evmap.sources.sim.scenario import load_scenario
 from evmap.sources.sim.world import World
