@@ -68,9 +68,9 @@ def mirror_echoes(
     ids = [u.id for u in bm.unidentified()] if objects is None else sorted(objects)
     g = bm.graph
     heard = {uid: heard_from(bm, uid) for uid in ids}
-    poses = {k: pose_sensed(bm, k) for ks in heard.values() for k in ks}
+    poses = {k: s for k in {k for ks in heard.values() for k in ks} if (s := pose_sensed(bm, k)) is not None}
     # an object heard from a pose the map does not remember is kept
-    image = {uid: True for uid in ids if heard[uid] and all(poses[k] is not None for k in heard[uid])}
+    image = {uid: True for uid in ids if heard[uid] and all(k in poses for k in heard[uid])}
     by_pose: dict[int, list[str]] = {}  # the objects each pose heard, of those judged
     for uid in image:
         for k in heard[uid]:
@@ -81,7 +81,7 @@ def mirror_echoes(
     # lies no farther from the pose than twice the path: each pose meets only the mirrors and targets so near
     reach, boxes = {}, []
     for k, mine in by_pose.items():
-        origin = poses[k].origin  # type: ignore[union-attr]
+        origin = poses[k].origin
         xy = np.array([g.nodes[uid]["xy"] for uid in mine], dtype=float)
         reach[k] = 2 * float(np.hypot(*(xy - origin).T).max()) + params.mirror_tolerance
         boxes.append((*(origin - reach[k]), *(origin + reach[k])))
@@ -98,7 +98,6 @@ def mirror_echoes(
     m_hi = np.maximum(mp - carry * u_m, mq + carry * u_m)
     for k in sorted(by_pose):
         s = poses[k]
-        assert s is not None
         mine = [uid for uid in by_pose[k] if image[uid]]  # not yet refuted by another pose
         if not mine:
             continue
