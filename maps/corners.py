@@ -13,11 +13,14 @@ With ``drawn_apart`` (:class:`~evmap.sources.params.CornerParams`), the lines
 drawn from a corner to their other ends must stay ``min_angle_deg`` from
 parallel too, and each within :data:`TURN_SHARE` of ``min_angle_deg`` of its own
 direction (a line has two ends: turned at both, it stays within the corner
-angle): where two come closer (a short piece folded onto a wall, a bending
-wall drawn straight), or a corner turns a line further (a piece of a few
-centimetres drawn across or back along itself), the end of the line the corner
-turns most from its own direction leaves it, and the corner is found again
-without it.
+angle), and, given merging's tolerances, unrelated to every other line as fitted
+(:func:`~evmap.maps.merging.related_pairs`: a corner must not draw a line onto a
+neighbouring piece of the same wall that merging left apart): where two come
+closer (a short piece folded onto a wall, a bending wall drawn straight), a
+corner turns a line further (a piece of a few centimetres drawn across or back
+along itself), or draws it within merging's tolerances of another line, the end
+of the line the corner turns most from its own direction leaves it, and the
+corner is found again without it.
 
 Only end points are compared: an end point near the middle of another line
 (a T-junction) makes no corner, and parallel lines whose ends touch make none
@@ -41,11 +44,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from evmap.maps.merging import check_segments
+from evmap.maps.merging import check_segments, related_pairs
 from evmap.sources.clusters import close_pairs, component_labels
-from evmap.sources.params import CornerParams
+from evmap.sources.params import CornerParams, MergeParams
 
-__all__ = ["TURN_SHARE", "Corners", "find_corners"]
+__all__ = ["TURN_SHARE", "Corners", "drawn_reach", "find_corners"]
 
 _EPS = 1e-9
 
@@ -86,6 +89,9 @@ def find_corners(
     q: ArrayLike,
     params: CornerParams | None = None,
     viewpoint: ArrayLike | None = None,
+    *,
+    merge: MergeParams | None = None,
+    others: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> Corners:
     """Find the corners of lines p-q and snap their end points onto them.
 
@@ -95,6 +101,8 @@ def find_corners(
     params : the tolerances; ``CornerParams()`` (5 cm, 10 deg) if omitted.
     viewpoint : (x, y) of the robot, for the corners' shapes, or (M, 2) robot positions, each corner seen
         from the nearest of them; None for "unknown".
+    merge : merging's tolerances: with ``params.drawn_apart``, no line is drawn related to another line (of p-q,
+        or of ``others``: the ends of lines that make no corner here, (K, 2) each).
 
     Returns
     -------
@@ -125,7 +133,11 @@ def find_corners(
     link = (l1 != l2) & (np.abs(np.sum(u[l1] * u[l2], axis=1)) <= cos_max)
     e1, e2 = e1[link], e2[link]
     member, comp = _clusters(ends, e1, e2)
-    while params.drawn_apart and (folded := _folded(ends, member, comp, u, cos_max)).size:
+    apart = None
+    if merge is not None:
+        op, oq = (np.zeros((0, 2)), np.zeros((0, 2))) if others is None else check_segments(*others)
+        apart = merge, np.concatenate([p, op]), np.concatenate([q, oq])
+    while params.drawn_apart and (folded := _folded(ends, member, comp, u, cos_max, apart)).size:
         kept = ~(np.isin(e1, folded) | np.isin(e2, folded))
         e1, e2 = e1[kept], e2[kept]
         member, comp = _clusters(ends, e1, e2)
@@ -154,6 +166,13 @@ def find_corners(
     )
 
 
+def drawn_reach(params: CornerParams, merge: MergeParams) -> float:
+    """How far (m) from a line as drawn another line's fit may lie that a corner could draw related to it (with
+    ``drawn_apart``): merging's reach (its gap and distance), and three corner distances for the moves of the
+    ends of both (a corner's ends lie each within the corner distance of another, most often two of them)."""
+    return float(np.hypot(merge.gap, merge.distance)) + 3 * params.distance
+
+
 def _clusters(
     ends: NDArray[np.float64], e1: NDArray[np.intp], e2: NDArray[np.intp]
 ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
@@ -171,12 +190,18 @@ def _clusters(
 
 
 def _folded(
-    ends: NDArray[np.float64], member: NDArray[np.intp], comp: NDArray[np.intp], u: NDArray[np.float64], cos_max: float
+    ends: NDArray[np.float64],
+    member: NDArray[np.intp],
+    comp: NDArray[np.intp],
+    u: NDArray[np.float64],
+    cos_max: float,
+    apart: tuple[MergeParams, NDArray[np.float64], NDArray[np.float64]] | None,
 ) -> NDArray[np.intp]:
     """One end of each corner whose lines, drawn from it (at the centroid of its ``member`` ends) to their other
     ends, come within the corner angle of parallel (``cos_max``), or one of which is drawn turned from its own
-    direction ``u`` by more than :data:`TURN_SHARE` of the corner angle: the end of the line the corner turns
-    most. A line drawn to no length turns most."""
+    direction ``u`` by more than :data:`TURN_SHARE` of the corner angle, or (``apart``: merging's tolerances and
+    every line's ends p, q, the corners' lines first) related to another line: the end of the line the corner
+    turns most. A line drawn to no length turns most."""
     cos_turn = np.cos(TURN_SHARE * np.arccos(min(cos_max, 1.0)))
     _, corner = np.unique(comp[member], return_inverse=True)
     xy = _group_mean(ends[member], corner, corner.max(initial=-1) + 1)
@@ -188,6 +213,13 @@ def _folded(
     turn = np.where(length > 0, 1 - along, np.inf)
     order = np.argsort(corner, kind="stable")  # a corner's ends in a row
     bad = ~(along >= cos_turn - 2 * _EPS)  # turned by more than its share (a line drawn to no length too)
+    if apart is not None:  # drawn related to another line as fitted (a piece of the same wall)
+        at = np.where((member % 2 == 0)[:, None], xy[corner], ends[member ^ 1])  # drawn, end 0 first
+        to = np.where((member % 2 == 1)[:, None], xy[corner], ends[member ^ 1])
+        drawn_at = np.flatnonzero(length > 0)
+        a, b, _ = related_pairs(at[drawn_at], to[drawn_at], apart[0], (apart[1], apart[2]))
+        a = drawn_at[a]
+        bad[a[b != member[a] // 2]] = True
     for step in range(1, len(order)):
         a, b = order[:-step], order[step:]
         same = corner[a] == corner[b]

@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 
 from evidential import MassFunction
 from evmap.maps.affected_points import affected_points
-from evmap.maps.corners import find_corners
+from evmap.maps.corners import drawn_reach, find_corners
 from evmap.maps.merged_evidence import MergedEvidence, merged_evidence
 from evmap.maps.merging import Merged, merge_segments, related_pairs
 from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, unmoved
@@ -216,6 +216,18 @@ def _same_mass(a: MassFunction, b: MassFunction) -> bool:
     return x.shape == y.shape and bool((x == y).all())
 
 
+def _fits_near(
+    bm: BeliefMap, fits: NDArray[np.float64], config: Config
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The fits (ends p, q) of the map's lines near the lines ``fits`` ((N, 2, 2)): those a corner of them may
+    draw one of them related to (:func:`~evmap.maps.corners.drawn_reach`)."""
+    reach = drawn_reach(config.corners, config.merge)
+    boxes = np.hstack([fits.min(axis=1) - reach, fits.max(axis=1) + reach])
+    near = sorted(bm.near(boxes, "lines")) if len(fits) else []
+    found = np.array([bm.graph.edge(*bm.ends(lid))["fit"] for lid in near], dtype=float).reshape(-1, 2, 2)
+    return found[:, 0], found[:, 1]
+
+
 def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[str]) -> tuple[list[_Line], Removed]:
     """Remove the dissolved lines, the lines at affected points, and those points.
 
@@ -315,7 +327,10 @@ def _attach(
     thin wedge between them) keeps both ends free, and its corners are placed without it (a corner left with one
     line is none)."""
     fits = np.array([line.fit for line in lines]).reshape(-1, 2, 2)
-    corners = find_corners(fits[:, 0], fits[:, 1], config.corners, viewpoint) if join else None
+    corners = None
+    if join:
+        others = _fits_near(bm, fits, config) if config.corners.drawn_apart else None
+        corners = find_corners(fits[:, 0], fits[:, 1], config.corners, viewpoint, merge=config.merge, others=others)
     end_point: dict[tuple[int, int], str | int] = {
         (i, e): point for i, line in enumerate(lines) for e, point in enumerate(line.fixed) if point is not None
     }

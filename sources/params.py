@@ -155,8 +155,9 @@ class CornerParams(_Params):
     min_angle_deg: float = Field(10.0, ge=0, le=90, description="lines closer than this to parallel make no corner")
     drawn_apart: bool = Field(
         False,
-        description="lines drawn from their corner must stay min_angle_deg from parallel, and within half of "
-        "min_angle_deg of their own directions, else the end of the one it turns most is left free",
+        description="lines drawn from their corner must stay min_angle_deg from parallel, within half of "
+        "min_angle_deg of their own directions, and unrelated (merging's tolerances) to every other line as "
+        "fitted, else the end of the one it turns most is left free",
     )
 
 

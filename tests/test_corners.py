@@ -6,7 +6,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from evmap.maps.corners import find_corners
-from evmap.sources.params import CornerParams
+from evmap.maps.merging import related_pairs
+from evmap.sources.params import CornerParams, MergeParams
 
 
 def _polar(start, angle_deg, length):
@@ -174,6 +175,27 @@ def test_a_piece_the_corner_would_turn_leaves_it_when_lines_are_drawn_apart():
     np.testing.assert_array_equal([apart.p, apart.q], [p, q])
     walls = find_corners([[0.0, 0.0], [1.02, 0.0]], [[1.0, 0.0], [1.02, 1.0]], CornerParams(drawn_apart=True))
     assert walls.ends[0].tolist() == [[0, 1], [1, 0]]
+
+
+def test_a_corner_draws_no_line_related_to_another_when_lines_are_drawn_apart():
+    """A wall piece B 4.8-6.4 cm below a longer piece A of the same wall, beyond merging's tolerances, meets a wall
+    C going down: at their corner's midpoint B would be drawn 4.4-4.8 cm from A, a duplicate merging left apart.
+    Drawn apart, given merging's tolerances, B's end leaves the corner (also when A is one of ``others``, lines
+    that make no corner here)."""
+    a = np.array([[0.0, 0.06], [2.0, 0.06]])
+    b, c = [[0.3, 0.012], [1.3, -0.004]], [[1.3, 0.036], [1.3, -1.0]]
+    p, q = np.array([a[0], b[0], c[0]]), np.array([a[1], b[1], c[1]])
+    merge, params = MergeParams(), CornerParams(drawn_apart=True)
+    assert related_pairs(p, q, merge)[0].size == 0  # apart as fitted
+    plain = find_corners(p, q, params)
+    assert plain.corner_of[1:].tolist() == [[-1, 0], [0, -1]]
+    assert related_pairs(plain.p, plain.q, merge)[0].tolist() == [0]  # B drawn onto A
+    for kept in (
+        find_corners(p, q, params, merge=merge),
+        find_corners(p[1:], q[1:], params, merge=merge, others=(a[:1], a[1:])),
+    ):
+        assert kept.xy.shape == (0, 2)
+        np.testing.assert_array_equal([kept.p, kept.q], [p[-2:], q[-2:]] if len(kept.p) == 2 else [p, q])
 
 
 def test_empty_input_and_bad_viewpoint():

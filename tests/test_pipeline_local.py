@@ -14,7 +14,7 @@ from evmap.maps import pipeline
 from evmap.maps.app.log_run import run_log
 from evmap.maps.app.run import run_scenario
 from evmap.maps.belief_map import BeliefMap, new_map
-from evmap.maps.corners import find_corners
+from evmap.maps.corners import drawn_reach, find_corners
 from evmap.maps.log_observation import observation_from_log
 from evmap.maps.merging import merge_segments
 from evmap.maps.noise import judge, settled
@@ -158,7 +158,7 @@ def assert_corners_of_every_line(run):
     g = run.map.graph
     ids = [d["id"] for _, _, d in g.edges()]
     fits = np.array([d["fit"] for _, _, d in g.edges()])
-    whole = find_corners(fits[:, 0], fits[:, 1], run.config.corners)
+    whole = find_corners(fits[:, 0], fits[:, 1], run.config.corners, merge=run.config.merge)
     freed, joined = set(), set()
     for i in np.lexsort((ids, -np.hypot(*(fits[:, 1] - fits[:, 0]).T))).tolist():
         at = frozenset(whole.corner_of[i].tolist())
@@ -253,18 +253,21 @@ def test_two_lines_that_meet_at_both_ends_leave_the_shorter_free():
 
 def test_lines_a_scan_comes_near_but_leaves_as_they_are_stay_as_they_are():
     """A corner of two walls and a piece of clutter whose both ends are within the corner distance (one joins
-    the corner, the other stays free); a later segment 8 cm from a wall, too far to merge with it, changes
-    none of them: same ids, same points, the corner the whole map's."""
+    the corner, the other stays free); a later segment 25 cm from a wall, too far to merge with it or to be
+    drawn related to it by a corner (:func:`~evmap.maps.corners.drawn_reach`), changes none of them: same ids,
+    same points, the corner the whole map's."""
     bm = new_map(load_config("default"))
     bm.update(laser_only(0, [[0, 0], [0, 0], [0.02, 0.02]], [[2, 0], [0, 2], [0.035, 0.035]]))
     bm.join_corners()  # kept from now on
     before = sorted((d["id"], u, v, d["fit"]) for u, v, d in bm.graph.edges())
     assert [(lid, u, v) for lid, u, v, _ in before] == [("L1", "C1", "E7"), ("L2", "C1", "E8"), ("L3", "C1", "E9")]
-    bm.update(laser_only(1, [[0.5, 0.08]], [[1.5, 0.08]]))
+    assert drawn_reach(bm.config.corners, bm.config.merge) < 0.25
+    bm.update(laser_only(1, [[0.5, 0.25]], [[1.5, 0.25]]))
     after = sorted((d["id"], u, v, d["fit"]) for u, v, d in bm.graph.edges())
     assert after[:3] == before and [lid for lid, *_ in after[3:]] == ["L4"]
     fits = np.array([fit for *_, fit in after])
-    assert find_corners(fits[:, 0], fits[:, 1], bm.config.corners).xy.tolist() == [list(bm.graph.nodes["C1"]["xy"])]
+    whole = find_corners(fits[:, 0], fits[:, 1], bm.config.corners, merge=bm.config.merge)
+    assert whole.xy.tolist() == [list(bm.graph.nodes["C1"]["xy"])]
 
 
 def test_a_segment_the_new_rays_go_through_is_judged_again_though_nothing_is_seen_beside_it():
