@@ -8,8 +8,9 @@ would link with an end at a point found anew. A line left free at a corner's end
 other end too (two lines meeting at both ends, :func:`~evmap.maps.rebuild.rebuild`) is found anew at both:
 the free far end of a line at an affected point is affected where it would link with another line's end, and
 so is a point where two lines from affected points end. With ``corners.drawn_apart``, a corner draws no line
-related to another line as fitted (:mod:`evmap.maps.corners`): the ends of the lines whose fits lie within
-:func:`~evmap.maps.corners.drawn_reach` of a line found anew or dissolved are affected too.
+related to another line as fitted (:mod:`evmap.maps.corners`): the ends of the lines that a line found anew or
+dissolved pairs with by merging's tolerances widened by what corners may do
+(:func:`~evmap.maps.corners.loose_merge`, :func:`~evmap.maps.refit.paired_lines`) are affected too.
 """
 
 from __future__ import annotations
@@ -19,9 +20,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from evmap.maps.corners import drawn_reach
 from evmap.maps.merging import Merged
-from evmap.maps.refit import line_ends, linked
+from evmap.maps.refit import line_ends, linked, paired_lines
 from evmap.sources.config_model import Config
 
 if TYPE_CHECKING:
@@ -44,9 +44,7 @@ def affected_points(
     found = np.stack([ends, u / np.hypot(*u.T)[:, None]], axis=1)
     freed = affected | linked(bm, found, affected, config)[0]
     if config.corners.drawn_apart and len(p):  # a corner there may draw one of its lines related to a changed line
-        reach = drawn_reach(config.corners, config.merge)
-        near = bm.near(np.hstack([np.minimum(p, q) - reach, np.maximum(p, q) + reach]), "lines") - dissolved.keys()
-        freed |= {n for lid in near for n in bm.ends(lid)}
+        freed |= {n for lid in paired_lines(bm, p, q, config) - dissolved.keys() for n in bm.ends(lid)}
     affected |= freed
     lines_to: dict[str, set[str]] = {}  # a point -> the lines from affected points that end there
     while freed:

@@ -48,7 +48,7 @@ from evmap.maps.merging import check_segments, related_pairs
 from evmap.sources.clusters import close_pairs, component_labels
 from evmap.sources.params import CornerParams, MergeParams
 
-__all__ = ["TURN_SHARE", "Corners", "drawn_reach", "find_corners"]
+__all__ = ["TURN_SHARE", "Corners", "drawn_reach", "find_corners", "loose_merge"]
 
 _EPS = 1e-9
 
@@ -163,6 +163,19 @@ def find_corners(
         corner_of=corner_of.reshape(n, 2),
         free=np.stack([free // 2, free % 2], axis=1),
         shape=_shapes(snapped.reshape(-1, 2), member, corner, xy, viewpoint),
+    )
+
+
+def loose_merge(params: CornerParams, merge: MergeParams) -> MergeParams:
+    """Merging's tolerances widened by what a corner may do to a line (with ``drawn_apart``): an end moved by up to
+    three corner distances (a corner's ends lie each within the corner distance of another, most often two of
+    them), the line turned by up to :data:`TURN_SHARE` of the corner angle (a corner that turns one further drops
+    the end it turns most, whatever else it finds). A line that a corner could draw related to another line pairs
+    with it by these as fitted."""
+    return MergeParams(
+        distance=min(merge.distance + 3 * params.distance, 1.0),
+        angle_deg=min(merge.angle_deg + TURN_SHARE * params.min_angle_deg + 1e-6, 90.0),
+        gap=min(merge.gap + 3 * params.distance, 1.0),
     )
 
 

@@ -19,14 +19,24 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from evmap.maps.corners import TURN_SHARE, drawn_reach
+from evmap.maps.corners import TURN_SHARE, drawn_reach, loose_merge
 from evmap.maps.merging import Merged, related_pairs
 from evmap.sources.config_model import Config
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["SURFACE_KINDS", "NearEnds", "end_moves", "line_ends", "linked", "refits", "surface_points_near", "unmoved"]
+__all__ = [
+    "SURFACE_KINDS",
+    "NearEnds",
+    "end_moves",
+    "line_ends",
+    "linked",
+    "paired_lines",
+    "refits",
+    "surface_points_near",
+    "unmoved",
+]
 
 SURFACE_KINDS = ("corner", "endpoint")
 """The kinds of points that end lines (an unidentified object ends none)."""
@@ -167,9 +177,11 @@ def _drawn_related(
     may read the new fits otherwise)."""
     g = bm.graph
     reach = drawn_reach(config.corners, config.merge)
-    old = [np.array(g.edge(*bm.ends(lid))["fit"], dtype=float) for lid in fits]
-    spans = np.array([[*f.min(axis=0) - reach, *f.max(axis=0) + reach] for f in (*old, *fits.values())])
-    near = sorted(bm.near(spans, "lines") | fits.keys())
+    old = np.array([g.edge(*bm.ends(lid))["fit"] for lid in fits], dtype=float)
+    new = np.array(list(fits.values()), dtype=float)
+    both = np.concatenate([old, new])
+    at_points = {d["id"] for lid in fits for n in bm.ends(lid) for d in g.adj[n].values()}
+    near = sorted(paired_lines(bm, both[:, 0], both[:, 1], config) | at_points | fits.keys())
     moved = {node: xy for found in moves.values() for node, xy in found}
     owners: dict[str, set[str]] = {}  # a point of a refitted line -> the refitted lines there
     for lid in fits:
@@ -305,6 +317,19 @@ def _drawn_close(place: tuple[float, float], ends: list[list[float]], far: list[
     cos_turn = math.cos(TURN_SHARE * math.acos(min(cos_max, 1.0)))
     turned = any((a[0] * o[0] + a[1] * o[1]) / math.hypot(*o) < cos_turn - 2e-9 for a, o in zip(w, own, strict=True))
     return turned or any(abs(a[0] * b[0] + a[1] * b[1]) > cos_max for i, a in enumerate(w) for b in w[i + 1 :])
+
+
+def paired_lines(bm: BeliefMap, p: NDArray[np.float64], q: NDArray[np.float64], config: Config) -> set[str]:
+    """The map's lines that one of the lines p-q pairs with by merging's tolerances widened by what corners may do
+    (:func:`~evmap.maps.corners.loose_merge`): those a corner could draw related to one of them, or draw one of
+    them related to."""
+    reach = drawn_reach(config.corners, config.merge)
+    ids = sorted(bm.near(np.hstack([np.minimum(p, q) - reach, np.maximum(p, q) + reach]), "lines")) if len(p) else []
+    if not ids:
+        return set()
+    fits = np.array([bm.graph.edge(*bm.ends(lid))["fit"] for lid in ids], dtype=float)
+    a = related_pairs(fits[:, 0], fits[:, 1], loose_merge(config.corners, config.merge), (p, q))[0]
+    return {ids[i] for i in a.tolist()}
 
 
 def line_ends(bm: BeliefMap, points: Iterable[str], dissolved: Iterable[str]) -> tuple[list[str], NDArray[np.float64]]:
