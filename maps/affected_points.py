@@ -10,7 +10,7 @@ the free far end of a line at an affected point is affected where it would link 
 so is a point where two lines from affected points end. With ``corners.drawn_apart``, a corner draws no line
 related to another line as fitted (:mod:`evmap.maps.corners`): the ends of the lines that a line found anew or
 dissolved pairs with by merging's tolerances widened by what corners may do
-(:func:`~evmap.maps.corners.loose_merge`, :func:`~evmap.maps.refit.paired_lines`) are affected too.
+(:func:`~evmap.maps.corners.loose_merge`, :func:`~evmap.maps.redrawn.paired_lines`) are affected too.
 """
 
 from __future__ import annotations
@@ -21,7 +21,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from evmap.maps.merging import Merged
-from evmap.maps.refit import line_ends, linked, paired_lines
+from evmap.maps.near_ends import line_ends, linked
+from evmap.maps.redrawn import between_sensitive, paired_lines
 from evmap.sources.config_model import Config
 
 if TYPE_CHECKING:
@@ -49,16 +50,22 @@ def affected_points(
     lines_to: dict[str, set[str]] = {}  # a point -> the lines from affected points that end there
     while freed:
         at = line_ends(bm, freed, dissolved)[1]
-        reached = set()  # the far points reached anew (those reached before were checked then)
-        for lid, point in _far_points(bm, freed, dissolved):
+        reached, redrawn = set(), set()  # the far points reached anew (those reached before were checked then)
+        far_points = _far_points(bm, freed, dissolved)
+        sensitive = (
+            between_sensitive(bm, {lid for lid, _ in far_points}, config) if config.corners.drawn_apart else set()
+        )
+        for lid, point in far_points:
             if point not in affected:
                 lines_to.setdefault(point, set()).add(lid)
                 reached.add(point)
+                if lid in sensitive:  # drawn to its end here anew, which may matter to this corner
+                    redrawn.add(point)
         free_ends = sorted(n for n in reached if bm.graph.nodes[n]["kind"] == "endpoint")
         far, far_ends = line_ends(bm, free_ends, ())
         joined, links = linked(bm, np.concatenate([at, far_ends]), affected, config)
         shared = {n for n in reached if len(lines_to[n]) > 1}  # two lines that may meet at both ends
-        freed = (joined | {far[i] for i in np.flatnonzero(links[len(at) :])} | shared) - affected
+        freed = (joined | {far[i] for i in np.flatnonzero(links[len(at) :])} | shared | redrawn) - affected
         affected |= freed
     return affected
 

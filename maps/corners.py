@@ -20,7 +20,11 @@ closer (a short piece folded onto a wall, a bending wall drawn straight), a
 corner turns a line further (a piece of a few centimetres drawn across or back
 along itself), or draws it within merging's tolerances of another line, the end
 of the line the corner turns most from its own direction leaves it, and the
-corner is found again without it.
+corner is found again without it. Given merging's tolerances, the lines are also
+drawn to their other ends where those ends' own corners put them (a line moved
+at both ends): two that then come within the corner angle, or one then related
+to another line (whose end moved farther leaves: end 0 if as far), are judged
+as above.
 
 Only end points are compared: an end point near the middle of another line
 (a T-junction) makes no corner, and parallel lines whose ends touch make none
@@ -48,7 +52,7 @@ from evmap.maps.merging import check_segments, related_pairs
 from evmap.sources.clusters import close_pairs, component_labels
 from evmap.sources.params import CornerParams, MergeParams
 
-__all__ = ["TURN_SHARE", "Corners", "drawn_reach", "find_corners", "loose_merge"]
+__all__ = ["TURN_SHARE", "Corners", "drawn_reach", "drawn_turn", "find_corners", "loose_merge"]
 
 _EPS = 1e-9
 
@@ -166,17 +170,25 @@ def find_corners(
     )
 
 
-def loose_merge(params: CornerParams, merge: MergeParams) -> MergeParams:
-    """Merging's tolerances widened by what a corner may do to a line (with ``drawn_apart``): an end moved by up to
+def loose_merge(params: CornerParams, merge: MergeParams, turn_deg: float) -> MergeParams:
+    """Merging's tolerances widened by what corners may do to a line (with ``drawn_apart``): its ends moved by up to
     three corner distances (a corner's ends lie each within the corner distance of another, most often two of
-    them), the line turned by up to :data:`TURN_SHARE` of the corner angle (a corner that turns one further drops
-    the end it turns most, whatever else it finds). A line that a corner could draw related to another line pairs
-    with it by these as fitted."""
+    them), the line turned by up to ``turn_deg`` (:func:`drawn_turn`). A line that corners could draw related to
+    another line pairs with it by these as fitted."""
     return MergeParams(
         distance=min(merge.distance + 3 * params.distance, 1.0),
-        angle_deg=min(merge.angle_deg + TURN_SHARE * params.min_angle_deg + 1e-6, 90.0),
+        angle_deg=min(merge.angle_deg + turn_deg + 1e-6, 90.0),
         gap=min(merge.gap + 3 * params.distance, 1.0),
     )
+
+
+def drawn_turn(params: CornerParams, length: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The most (degrees) corners may turn lines of these lengths (m) from their fits as drawn (with
+    ``drawn_apart``): :data:`TURN_SHARE` of the corner angle at one end (a corner that turns one further drops
+    the end it turns most, whatever else it finds), or, drawn between two corners, both ends moved across by up to
+    three corner distances."""
+    both = np.degrees(np.arcsin(np.minimum(6 * params.distance / np.maximum(length, 1e-12), 1.0)))
+    return np.maximum(both, TURN_SHARE * params.min_angle_deg)
 
 
 def drawn_reach(params: CornerParams, merge: MergeParams) -> float:
@@ -213,8 +225,9 @@ def _folded(
     """One end of each corner whose lines, drawn from it (at the centroid of its ``member`` ends) to their other
     ends, come within the corner angle of parallel (``cos_max``), or one of which is drawn turned from its own
     direction ``u`` by more than :data:`TURN_SHARE` of the corner angle, or (``apart``: merging's tolerances and
-    every line's ends p, q, the corners' lines first) related to another line: the end of the line the corner
-    turns most. A line drawn to no length turns most."""
+    every line's ends p, q, the corners' lines first) related to another line; with ``apart``, also with each
+    line drawn to its other end where that end's own corner puts it: the end of the line the corner turns most.
+    A line drawn to no length turns most."""
     cos_turn = np.cos(TURN_SHARE * np.arccos(min(cos_max, 1.0)))
     _, corner = np.unique(comp[member], return_inverse=True)
     xy = _group_mean(ends[member], corner, corner.max(initial=-1) + 1)
@@ -226,20 +239,35 @@ def _folded(
     turn = np.where(length > 0, 1 - along, np.inf)
     order = np.argsort(corner, kind="stable")  # a corner's ends in a row
     bad = ~(along >= cos_turn - 2 * _EPS)  # turned by more than its share (a line drawn to no length too)
+    directions = [w]
     if apart is not None:  # drawn related to another line as fitted (a piece of the same wall)
-        at = np.where((member % 2 == 0)[:, None], xy[corner], ends[member ^ 1])  # drawn, end 0 first
-        to = np.where((member % 2 == 1)[:, None], xy[corner], ends[member ^ 1])
-        drawn_at = np.flatnonzero(length > 0)
-        a, b, _ = related_pairs(at[drawn_at], to[drawn_at], apart[0], (apart[1], apart[2]))
-        a = drawn_at[a]
-        bad[a[b != member[a] // 2]] = True
+        of = np.full(len(ends), -1)
+        of[member] = np.arange(len(member))
+        partner = of[member ^ 1]  # the row of the line's other end where it meets a corner, else -1
+        far = ends[member ^ 1].copy()
+        far[partner >= 0] = xy[corner[partner[partner >= 0]]]
+        both = far - xy[corner]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            directions.append(both / np.hypot(*both.T)[:, None])
+        move = np.hypot(*(xy[corner] - ends[member]).T)
+        for other_end, one in ((ends[member ^ 1], False), (far, True)):
+            rows = np.flatnonzero((length > 0) & (partner >= 0) if one else length > 0)
+            at = np.where((member[rows] % 2 == 0)[:, None], xy[corner[rows]], other_end[rows])  # end 0 first
+            to = np.where((member[rows] % 2 == 1)[:, None], xy[corner[rows]], other_end[rows])
+            a, b, _ = related_pairs(at, to, apart[0], (apart[1], apart[2]))
+            hit = rows[a[b != member[rows[a]] // 2]]
+            if one:  # drawn between its two corners: the end moved farther (end 0 if as far)
+                mine, theirs = move[hit], move[partner[hit]]
+                hit = hit[(mine > theirs) | ((mine == theirs) & (member[hit] % 2 == 0))]
+            bad[hit] = True
     for step in range(1, len(order)):
         a, b = order[:-step], order[step:]
         same = corner[a] == corner[b]
         if not same.any():
             break
-        close = same & ~(np.abs(np.sum(w[a] * w[b], axis=1)) <= cos_max)  # a line drawn to no length is close
-        bad[a[close]] = bad[b[close]] = True
+        for d in directions:  # a line drawn to no length is close
+            close = same & ~(np.abs(np.sum(d[a] * d[b], axis=1)) <= cos_max)
+            bad[a[close]] = bad[b[close]] = True
     folded = np.flatnonzero(bad)
     first = np.lexsort((-turn[folded], corner[folded]))
     take = np.ones(len(first), dtype=bool)

@@ -34,7 +34,8 @@ from evmap.maps.affected_points import affected_points
 from evmap.maps.corners import drawn_reach, find_corners
 from evmap.maps.merged_evidence import MergedEvidence, merged_evidence
 from evmap.maps.merging import Merged, merge_segments, related_pairs
-from evmap.maps.refit import SURFACE_KINDS, end_moves, refits, unmoved
+from evmap.maps.near_ends import SURFACE_KINDS
+from evmap.maps.refit import end_moves, refits, unmoved
 from evmap.maps.running_mass import NOISE_STAGE, carried, with_running
 from evmap.maps.segments import CONSOLIDATE_POSES
 from evmap.maps.sensed import sensed

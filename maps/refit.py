@@ -6,48 +6,30 @@ new segments of no line), close to it in direction and ends, whose ends can
 follow without any corner changing, refits that line in place instead
 (:func:`refits`): the line keeps its id and points, which move onto the new fit
 (:func:`end_moves`). The ends near the refitted lines are found by one small
-query per end (:func:`surface_points_near`) and tested all at once by numpy.
+query per end (:func:`~evmap.maps.near_ends.surface_points_near`) and tested all at once by numpy; with
+``corners.drawn_apart``, :func:`~evmap.maps.redrawn.redrawn_refits` keeps out the refits that would redraw a
+corner.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-from evmap.maps.corners import TURN_SHARE, drawn_reach, loose_merge
-from evmap.maps.merging import Merged, related_pairs
+from evmap.maps.corners import TURN_SHARE
+from evmap.maps.merging import Merged
+from evmap.maps.near_ends import surface_points_near
+from evmap.maps.redrawn import redrawn_refits
 from evmap.sources.config_model import Config
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = [
-    "SURFACE_KINDS",
-    "NearEnds",
-    "end_moves",
-    "line_ends",
-    "linked",
-    "paired_lines",
-    "refits",
-    "surface_points_near",
-    "unmoved",
-]
-
-SURFACE_KINDS = ("corner", "endpoint")
-"""The kinds of points that end lines (an unidentified object ends none)."""
-
-
-def surface_points_near(bm: BeliefMap, xy: NDArray[np.float64], reach: float) -> list[str]:
-    """The corners and end points (sorted) in the boxes reaching ``reach`` around each of the points ``xy``:
-    the cells of each small box, so the cost is what is near them however far apart they are."""
-    g = bm.graph
-    found = bm.near(np.hstack([xy - reach, xy + reach]), "points") if len(xy) else set()
-    return sorted(n for n in found if g.nodes[n]["kind"] in SURFACE_KINDS)
+__all__ = ["NearEnds", "end_moves", "refits", "unmoved"]
 
 
 def unmoved(
@@ -157,63 +139,12 @@ def refits(
         moves = end_moves(bm, fits, near, config)
         failed = {lid for lid, move in moves.items() if move is None}
         if config.corners.drawn_apart and not failed:
-            failed = _drawn_related(bm, fits, moves, config)
+            failed = redrawn_refits(bm, fits, moves, config)
         if not failed:
             return {lines_of[lid]: lid for lid in fits}, fits, near
         for lid in failed:
             del fits[lid]
     return {}, fits, _NO_ENDS
-
-
-def _drawn_related(
-    bm: BeliefMap,
-    fits: dict[str, NDArray[np.float64]],
-    moves: dict[str, list[tuple[str, tuple[float, float]]]],
-    config: Config,
-) -> set[str]:
-    """The refitted lines of ``fits`` whose refits (and corner ``moves``) a whole rebuild would not leave as they
-    are with ``drawn_apart``: a corner of a line near them would draw it related to another line as fitted, or a
-    line near them has a free end that links with another line's end (left free by the corners' rules, which
-    may read the new fits otherwise)."""
-    g = bm.graph
-    reach = drawn_reach(config.corners, config.merge)
-    old = np.array([g.edge(*bm.ends(lid))["fit"] for lid in fits], dtype=float)
-    new = np.array(list(fits.values()), dtype=float)
-    both = np.concatenate([old, new])
-    at_points = {d["id"] for lid in fits for n in bm.ends(lid) for d in g.adj[n].values()}
-    near = sorted(paired_lines(bm, both[:, 0], both[:, 1], config) | at_points | fits.keys())
-    moved = {node: xy for found in moves.values() for node, xy in found}
-    owners: dict[str, set[str]] = {}  # a point of a refitted line -> the refitted lines there
-    for lid in fits:
-        for node in bm.ends(lid):
-            owners.setdefault(node, set()).add(lid)
-
-    def fit(lid: str) -> NDArray[np.float64]:
-        return fits[lid] if lid in fits else np.array(g.edge(*bm.ends(lid))["fit"], dtype=float)
-
-    drawn, blame, free = [], [], []  # each corner's lines as drawn, the refits that may change each; free ends
-    for lid in near:
-        f = fit(lid)
-        for e, node in enumerate(bm.ends(lid)):
-            if g.nodes[node]["kind"] == "corner":
-                at = np.array(moved.get(node, g.nodes[node]["xy"]), dtype=float)
-                drawn.append((lid, *((at, f[1]) if e == 0 else (f[0], at))))
-                blame.append(owners.get(node, set()) | ({lid} & fits.keys()))
-            elif lid not in fits:
-                free.append(np.stack([f[e], (f[1] - f[0]) / np.hypot(*(f[1] - f[0]))]))
-    failed: set[str] = set()
-    if drawn:
-        dp, dq = np.array([d[1] for d in drawn]), np.array([d[2] for d in drawn])
-        boxes = np.hstack([np.minimum(dp, dq) - reach, np.maximum(dp, dq) + reach])
-        others = sorted(bm.near(boxes, "lines") | fits.keys())
-        fitted = np.array([fit(lid) for lid in others])
-        a, b, _ = related_pairs(dp, dq, config.merge, (fitted[:, 0], fitted[:, 1]))
-        for r, j in zip(a.tolist(), b.tolist(), strict=True):
-            if others[j] != drawn[r][0]:  # as the map stands there is none: a refit near made it
-                failed |= blame[r] | ({others[j]} & fits.keys()) or set(fits)
-    if free and linked(bm, np.array(free), set(), config)[1].any():
-        failed |= set(fits)
-    return failed
 
 
 @dataclass(frozen=True)
@@ -317,52 +248,3 @@ def _drawn_close(place: tuple[float, float], ends: list[list[float]], far: list[
     cos_turn = math.cos(TURN_SHARE * math.acos(min(cos_max, 1.0)))
     turned = any((a[0] * o[0] + a[1] * o[1]) / math.hypot(*o) < cos_turn - 2e-9 for a, o in zip(w, own, strict=True))
     return turned or any(abs(a[0] * b[0] + a[1] * b[1]) > cos_max for i, a in enumerate(w) for b in w[i + 1 :])
-
-
-def paired_lines(bm: BeliefMap, p: NDArray[np.float64], q: NDArray[np.float64], config: Config) -> set[str]:
-    """The map's lines that one of the lines p-q pairs with by merging's tolerances widened by what corners may do
-    (:func:`~evmap.maps.corners.loose_merge`): those a corner could draw related to one of them, or draw one of
-    them related to."""
-    reach = drawn_reach(config.corners, config.merge)
-    ids = sorted(bm.near(np.hstack([np.minimum(p, q) - reach, np.maximum(p, q) + reach]), "lines")) if len(p) else []
-    if not ids:
-        return set()
-    fits = np.array([bm.graph.edge(*bm.ends(lid))["fit"] for lid in ids], dtype=float)
-    a = related_pairs(fits[:, 0], fits[:, 1], loose_merge(config.corners, config.merge), (p, q))[0]
-    return {ids[i] for i in a.tolist()}
-
-
-def line_ends(bm: BeliefMap, points: Iterable[str], dissolved: Iterable[str]) -> tuple[list[str], NDArray[np.float64]]:
-    """The lines at these points but the ``dissolved``, one row each: the point, and (k, 2, 2) the line's fit end
-    there and its unit direction."""
-    g = bm.graph
-    at, rows = [], []
-    for n in sorted(points):
-        for d in g.adj[n].values():
-            if d["id"] not in dissolved:
-                fit = d["fit"]
-                e = bm.ends(d["id"]).index(n)
-                at.append(n)
-                rows.append((fit[e], (fit[1][0] - fit[0][0], fit[1][1] - fit[0][1])))
-    ends = np.array(rows, dtype=float).reshape(-1, 2, 2)
-    ends[:, 1] /= np.hypot(*ends[:, 1].T)[:, None]
-    return at, ends
-
-
-def linked(
-    bm: BeliefMap, found: NDArray[np.float64], affected: set[str], config: Config
-) -> tuple[set[str], NDArray[np.bool_]]:
-    """The points not ``affected`` where a line's fit end links with one of the ends ``found`` anew (from
-    :func:`line_ends`), and whether each found end links with one: within the corner distance, at least the
-    corner angle from parallel."""
-    none = (set(), np.zeros(len(found), dtype=bool))
-    if not len(found):
-        return none
-    points = [n for n in surface_points_near(bm, found[:, 0], 2 * config.corners.distance) if n not in affected]
-    owner, there = line_ends(bm, points, ())
-    if not owner:
-        return none
-    close = np.hypot(*(there[:, None, 0] - found[None, :, 0]).transpose(2, 0, 1)) <= config.corners.distance + 1e-9
-    across = np.abs(there[:, 1] @ found[:, 1].T) <= np.cos(np.radians(config.corners.min_angle_deg)) + 1e-9
-    link = close & across
-    return {owner[i] for i in np.flatnonzero(link.any(axis=1))}, link.any(axis=0)

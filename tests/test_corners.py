@@ -198,6 +198,40 @@ def test_a_corner_draws_no_line_related_to_another_when_lines_are_drawn_apart():
         np.testing.assert_array_equal([kept.p, kept.q], [p[-2:], q[-2:]] if len(kept.p) == 2 else [p, q])
 
 
+def test_a_line_drawn_between_two_corners_is_drawn_apart_with_both_ends_moved():
+    """B 5.2-6 cm below A, beyond merging's tolerances, between two walls going down: either corner alone leaves
+    B apart from A (its other end where it was fitted), both draw it 3.2-4 cm from A. Drawn from each corner to
+    its other end where that end's corner puts it, B loses the end its corner moves farther."""
+    a, b = [[0.0, 0.06], [2.0, 0.06]], [[0.3, 0.008], [1.3, 0.0]]
+    c, d = [[1.3, 0.04], [1.3, -1.0]], [[0.3, 0.048], [0.3, -1.0]]
+    p, q = np.array([a[0], b[0], c[0], d[0]]), np.array([a[1], b[1], c[1], d[1]])
+    merge, params = MergeParams(), CornerParams(drawn_apart=True)
+    plain = find_corners(p, q, params)
+    assert plain.corner_of[1].tolist() == [0, 1] and related_pairs(plain.p, plain.q, merge)[0].tolist() == [0]
+    for k in (0, 1):  # one corner alone
+        one = plain.p.copy(), plain.q.copy()
+        one[k][1] = (p, q)[k][1]
+        assert related_pairs(*one, merge)[0].size == 0
+    kept = find_corners(p, q, params, merge=merge)
+    assert sorted(kept.corner_of[1].tolist()) == [-1, 0]  # both moved 2 cm: one leaves
+    assert related_pairs(kept.p, kept.q, merge)[0].size == 0
+
+
+def test_two_lines_drawn_at_a_corner_they_share_stay_apart_as_drawn_to_their_other_corners():
+    """Two pieces 10.2 deg apart meeting at the origin; the second's other end meets a wall there, whose corner
+    draws it down to 9.9 deg from the first: drawn to that corner, the two come within the corner angle at the
+    corner they share, so one of them leaves it."""
+    p = np.array([[0.0, 0.0], [0.0, 0.0], [0.3, 0.0505]])
+    q = np.array([[0.3, 0.0], [0.3, 0.054], [0.3, 1.0]])
+    params = CornerParams(drawn_apart=True)
+    fitted = find_corners(p, q, params)
+    assert len(fitted.xy) == 2 and fitted.corner_of[:2].tolist() == [[0, -1], [0, 1]]
+    drawn = fitted.q[1] - fitted.p[1]
+    assert np.degrees(np.arctan2(drawn[1], drawn[0])) < params.min_angle_deg  # as drawn, within the angle of L0
+    kept = find_corners(p, q, params, merge=MergeParams())
+    assert len(kept.xy) == 1 and kept.corner_of[:2].tolist() == [[-1, -1], [-1, 0]]
+
+
 def test_empty_input_and_bad_viewpoint():
     c = find_corners(np.zeros((0, 2)), np.zeros((0, 2)), viewpoint=(0, 0))
     assert c.xy.shape == (0, 2) and c.ends == [] and c.free.shape == (0, 2) and c.shape.shape == (0,)
