@@ -22,7 +22,7 @@ import numpy as np
 
 from evmap.maps.merging import Merged
 from evmap.maps.near_ends import line_ends, linked
-from evmap.maps.redrawn import between_sensitive, paired_lines
+from evmap.maps.redrawn import drawing_matters, paired_lines
 from evmap.sources.config_model import Config
 
 if TYPE_CHECKING:
@@ -52,9 +52,7 @@ def affected_points(
         at = line_ends(bm, freed, dissolved)[1]
         reached, redrawn = set(), set()  # the far points reached anew (those reached before were checked then)
         far_points = _far_points(bm, freed, dissolved)
-        sensitive = (
-            between_sensitive(bm, {lid for lid, _ in far_points}, config) if config.corners.drawn_apart else set()
-        )
+        sensitive = drawing_matters(bm, far_points, config) if config.corners.drawn_apart else set()
         for lid, point in far_points:
             if point not in affected:
                 lines_to.setdefault(point, set()).add(lid)

@@ -96,6 +96,7 @@ def find_corners(
     *,
     merge: MergeParams | None = None,
     others: tuple[ArrayLike, ArrayLike] | None = None,
+    placed: ArrayLike | None = None,
 ) -> Corners:
     """Find the corners of lines p-q and snap their end points onto them.
 
@@ -107,6 +108,8 @@ def find_corners(
         from the nearest of them; None for "unknown".
     merge : merging's tolerances: with ``params.drawn_apart``, no line is drawn related to another line (of p-q,
         or of ``others``: the ends of lines that make no corner here, (K, 2) each).
+    placed : (N, 2, 2) where the ends of p-q already stand on points that stay (a map's points outside a
+        rebuild), NaN where they are found here: a line is drawn to such an end there.
 
     Returns
     -------
@@ -141,7 +144,8 @@ def find_corners(
     if merge is not None:
         op, oq = (np.zeros((0, 2)), np.zeros((0, 2))) if others is None else check_segments(*others)
         apart = merge, np.concatenate([p, op]), np.concatenate([q, oq])
-    while params.drawn_apart and (folded := _folded(ends, member, comp, u, cos_max, apart)).size:
+    fixed = None if placed is None else np.asarray(placed, dtype=float).reshape(-1, 2)
+    while params.drawn_apart and (folded := _folded(ends, member, comp, u, cos_max, apart, fixed)).size:
         kept = ~(np.isin(e1, folded) | np.isin(e2, folded))
         e1, e2 = e1[kept], e2[kept]
         member, comp = _clusters(ends, e1, e2)
@@ -184,11 +188,11 @@ def loose_merge(params: CornerParams, merge: MergeParams, turn_deg: float) -> Me
 
 def drawn_turn(params: CornerParams, length: NDArray[np.float64]) -> NDArray[np.float64]:
     """The most (degrees) corners may turn lines of these lengths (m) from their fits as drawn (with
-    ``drawn_apart``): :data:`TURN_SHARE` of the corner angle at one end (a corner that turns one further drops
-    the end it turns most, whatever else it finds), or, drawn between two corners, both ends moved across by up to
-    three corner distances."""
-    both = np.degrees(np.arcsin(np.minimum(6 * params.distance / np.maximum(length, 1e-12), 1.0)))
-    return np.maximum(both, TURN_SHARE * params.min_angle_deg)
+    ``drawn_apart``): both ends moved across by up to three corner distances (a corner's ends lie each within the
+    corner distance of another, most often two of them). One end moved turns a line less, and never by more than
+    :data:`TURN_SHARE` of the corner angle (a corner that would drops the end it turns most, whatever else it
+    finds)."""
+    return np.degrees(np.arcsin(np.minimum(6 * params.distance / np.maximum(length, 1e-12), 1.0)))
 
 
 def drawn_reach(params: CornerParams, merge: MergeParams) -> float:
@@ -221,6 +225,7 @@ def _folded(
     u: NDArray[np.float64],
     cos_max: float,
     apart: tuple[MergeParams, NDArray[np.float64], NDArray[np.float64]] | None,
+    fixed: NDArray[np.float64] | None = None,
 ) -> NDArray[np.intp]:
     """One end of each corner whose lines, drawn from it (at the centroid of its ``member`` ends) to their other
     ends, come within the corner angle of parallel (``cos_max``), or one of which is drawn turned from its own
@@ -244,20 +249,25 @@ def _folded(
         of = np.full(len(ends), -1)
         of[member] = np.arange(len(member))
         partner = of[member ^ 1]  # the row of the line's other end where it meets a corner, else -1
-        far = ends[member ^ 1].copy()
-        far[partner >= 0] = xy[corner[partner[partner >= 0]]]
+        move = np.hypot(*(xy[corner] - ends[member]).T)
+        far, far_move, placed = ends[member ^ 1].copy(), np.zeros(len(member)), partner >= 0
+        far[placed], far_move[placed] = xy[corner[partner[placed]]], move[partner[placed]]
+        if fixed is not None:  # the other end stands on a point that stays: drawn to it there
+            there = fixed[member ^ 1]
+            kept = ~np.isnan(there[:, 0])
+            far[kept], far_move[kept] = there[kept], np.hypot(*(there[kept] - ends[member[kept] ^ 1]).T)
+            placed |= kept
         both = far - xy[corner]
         with np.errstate(invalid="ignore", divide="ignore"):
             directions.append(both / np.hypot(*both.T)[:, None])
-        move = np.hypot(*(xy[corner] - ends[member]).T)
         for other_end, one in ((ends[member ^ 1], False), (far, True)):
-            rows = np.flatnonzero((length > 0) & (partner >= 0) if one else length > 0)
+            rows = np.flatnonzero((length > 0) & placed if one else length > 0)
             at = np.where((member[rows] % 2 == 0)[:, None], xy[corner[rows]], other_end[rows])  # end 0 first
             to = np.where((member[rows] % 2 == 1)[:, None], xy[corner[rows]], other_end[rows])
             a, b, _ = related_pairs(at, to, apart[0], (apart[1], apart[2]))
             hit = rows[a[b != member[rows[a]] // 2]]
             if one:  # drawn between its two corners: the end moved farther (end 0 if as far)
-                mine, theirs = move[hit], move[partner[hit]]
+                mine, theirs = move[hit], far_move[hit]
                 hit = hit[(mine > theirs) | ((mine == theirs) & (member[hit] % 2 == 0))]
             bad[hit] = True
     for step in range(1, len(order)):

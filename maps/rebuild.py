@@ -331,7 +331,10 @@ def _attach(
     corners = None
     if join:
         others = _fits_near(bm, fits, config) if config.corners.drawn_apart else None
-        corners = find_corners(fits[:, 0], fits[:, 1], config.corners, viewpoint, merge=config.merge, others=others)
+        placed = np.array([[bm.graph.nodes[n]["xy"] if n else (np.nan, np.nan) for n in line.fixed] for line in lines])
+        corners = find_corners(
+            fits[:, 0], fits[:, 1], config.corners, viewpoint, merge=config.merge, others=others, placed=placed
+        )
     end_point: dict[tuple[int, int], str | int] = {
         (i, e): point for i, line in enumerate(lines) for e, point in enumerate(line.fixed) if point is not None
     }

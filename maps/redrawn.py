@@ -2,7 +2,7 @@
 another line as fitted, and judges its lines drawn to their other ends where those ends' own corners put them
 (:mod:`evmap.maps.corners`). So a line found anew, dissolved or refitted concerns the corners of the lines that
 corners could draw related to it (:func:`paired_lines`), and a line drawn between two corners concerns both when
-its drawing may matter to either (:func:`between_sensitive`). :mod:`evmap.maps.affected_points` finds those
+its drawing may matter to either (:func:`drawing_matters`). :mod:`evmap.maps.affected_points` finds those
 corners anew; :func:`redrawn_refits` tells the refits in place (:mod:`evmap.maps.refit`) that would change one.
 """
 
@@ -22,7 +22,7 @@ from evmap.sources.config_model import Config
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["between_sensitive", "paired_lines", "redrawn_refits"]
+__all__ = ["drawing_matters", "paired_lines", "redrawn_refits"]
 
 
 def redrawn_refits(
@@ -34,7 +34,7 @@ def redrawn_refits(
     """The refitted lines of ``fits`` (new fits; their points' ``moves``) whose refits a whole rebuild would not
     leave as they are: a corner would then draw a line near them related to another line
     (:func:`_drawn_related`), or a corner of theirs that moves holds a line drawn between two corners whose drawing
-    may matter to either (:func:`between_sensitive`)."""
+    may matter to either (:func:`drawing_matters`)."""
     return _drawn_related(bm, fits, moves, config) | _redrawn_between(bm, fits, moves, config)
 
 
@@ -45,12 +45,13 @@ def _redrawn_between(
     config: Config,
 ) -> set[str]:
     """The refitted lines with a corner that moves and holds a line drawn between two corners whose drawing may
-    matter to either (:func:`between_sensitive`): a whole rebuild finds its corners anew."""
+    matter to either (:func:`drawing_matters`): a whole rebuild finds its corners anew."""
     g = bm.graph
     failed = set()
     for lid, found in moves.items():
-        at = {d["id"] for node, _ in found if g.nodes[node]["kind"] == "corner" for d in g.adj[node].values()}
-        if between_sensitive(bm, at, config):
+        lines = {d["id"] for node, _ in found if g.nodes[node]["kind"] == "corner" for d in g.adj[node].values()}
+        far = {(k, m) for k in lines for m in bm.ends(k) if m not in {node for node, _ in found}}
+        if drawing_matters(bm, far, config):
             failed.add(lid)
     return failed
 
@@ -136,23 +137,25 @@ def _pairs(bm: BeliefMap, p: NDArray[np.float64], q: NDArray[np.float64], config
     return [(j, ids[i]) for i, j in zip(a[keep].tolist(), b[keep].tolist(), strict=True)]
 
 
-def between_sensitive(bm: BeliefMap, lids: Iterable[str], config: Config) -> set[str]:
-    """The lines of ``lids`` that end at two corners and whose drawing between them may matter to either corner
-    (with ``drawn_apart``, :mod:`evmap.maps.corners` draws a line from a corner to its other end where that end's
-    own corner puts it): lines that corners could draw related to another line (:func:`paired_lines`), or with
-    another line at one of their corners, as drawn, within the corner angle and what corners may turn them
-    (:func:`~evmap.maps.corners.drawn_turn`) of their fit."""
+def drawing_matters(bm: BeliefMap, at: Iterable[tuple[str, str]], config: Config) -> set[str]:
+    """The lines of ``at`` ((line, corner) pairs: a line and the corner at one of its ends) whose drawing to that
+    corner from a corner at their other end may matter there (with ``drawn_apart``, :mod:`evmap.maps.corners`
+    draws a line from a corner to its other end where that end's own corner puts it): lines that corners could draw
+    related to another line (:func:`paired_lines`), or with another line at that corner, as drawn, within the corner
+    angle and what corners may turn them (:func:`~evmap.maps.corners.drawn_turn`) of their fit."""
     g = bm.graph
-    between = sorted(lid for lid in set(lids) if all(g.nodes[n]["kind"] == "corner" for n in bm.ends(lid)))
     found: set[str] = set()
-    for lid in between:
+    for lid, node in sorted(set(at)):
+        if lid in found or g.nodes[node]["kind"] != "corner":
+            continue
         fit = np.array(g.edge(*bm.ends(lid))["fit"], dtype=float)
-        others = [(n, d["id"]) for n in bm.ends(lid) for d in g.adj[n].values() if d["id"] != lid]
         if any(ml != lid for _, ml in _pairs(bm, fit[:1], fit[1:], config)):
             found.add(lid)
-        elif others:
+            continue
+        others = [d["id"] for d in g.adj[node].values() if d["id"] != lid]
+        if others:
             u = fit[1] - fit[0]
-            drawn = np.array([[g.nodes[m]["xy"] for m in bm.ends(k)] for _, k in others], dtype=float)
+            drawn = np.array([[g.nodes[m]["xy"] for m in bm.ends(k)] for k in others], dtype=float)
             v = drawn[:, 1] - drawn[:, 0]
             cos = np.abs(v @ u) / (np.hypot(*u) * np.maximum(np.hypot(*v.T), 1e-12))
             turn = drawn_turn(config.corners, np.array([np.hypot(*u)]))[0]
