@@ -49,9 +49,9 @@ def _redrawn_between(
     g = bm.graph
     failed = set()
     for lid, found in moves.items():
-        lines = {d["id"] for node, _ in found if g.nodes[node]["kind"] == "corner" for d in g.adj[node].values()}
-        far = {(k, m) for k in lines for m in bm.ends(k) if m not in {node for node, _ in found}}
-        if drawing_matters(bm, far, config):
+        nodes = {node for node, _ in found}
+        lines = {d["id"] for node in nodes if g.nodes[node]["kind"] == "corner" for d in g.adj[node].values()}
+        if drawing_matters(bm, {(k, m) for k in lines for m in bm.ends(k) if m not in nodes}, config):
             failed.add(lid)
     return failed
 
