@@ -261,7 +261,7 @@ def _folded(
         with np.errstate(invalid="ignore", divide="ignore"):
             directions.append(both / np.hypot(*both.T)[:, None])
         for other_end, one in ((ends[member ^ 1], False), (far, True)):
-            rows = np.flatnonzero((length > 0) & placed if one else length > 0)
+            rows = np.flatnonzero((length > 0) & placed & np.any(both != 0, axis=1) if one else length > 0)
             at = np.where((member[rows] % 2 == 0)[:, None], xy[corner[rows]], other_end[rows])  # end 0 first
             to = np.where((member[rows] % 2 == 1)[:, None], xy[corner[rows]], other_end[rows])
             a, b, _ = related_pairs(at, to, apart[0], (apart[1], apart[2]))
