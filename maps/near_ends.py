@@ -15,7 +15,7 @@ from evmap.sources.config_model import Config
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
 
-__all__ = ["SURFACE_KINDS", "line_ends", "linked", "surface_points_near"]
+__all__ = ["SURFACE_KINDS", "fits_near", "line_ends", "linked", "surface_points_near"]
 
 SURFACE_KINDS = ("corner", "endpoint")
 """The kinds of points that end lines (an unidentified object ends none)."""
@@ -27,6 +27,15 @@ def surface_points_near(bm: BeliefMap, xy: NDArray[np.float64], reach: float) ->
     g = bm.graph
     found = bm.near(np.hstack([xy - reach, xy + reach]), "points") if len(xy) else set()
     return sorted(n for n in found if g.nodes[n]["kind"] in SURFACE_KINDS)
+
+
+def fits_near(
+    bm: BeliefMap, p: NDArray[np.float64], q: NDArray[np.float64], reach: float
+) -> tuple[list[str], NDArray[np.float64]]:
+    """The map's lines (sorted ids) whose boxes meet a box of the lines p-q grown by ``reach``, and their fits
+    ((L, 2, 2))."""
+    ids = sorted(bm.near(np.hstack([np.minimum(p, q) - reach, np.maximum(p, q) + reach]), "lines")) if len(p) else []
+    return ids, np.array([bm.graph.edge(*bm.ends(lid))["fit"] for lid in ids], dtype=float).reshape(-1, 2, 2)
 
 
 def line_ends(bm: BeliefMap, points: Iterable[str], dissolved: Iterable[str]) -> tuple[list[str], NDArray[np.float64]]:

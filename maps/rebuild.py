@@ -34,7 +34,7 @@ from evmap.maps.affected_points import affected_points
 from evmap.maps.corners import drawn_reach, find_corners
 from evmap.maps.merged_evidence import MergedEvidence, merged_evidence
 from evmap.maps.merging import Merged, merge_segments, related_pairs
-from evmap.maps.near_ends import SURFACE_KINDS
+from evmap.maps.near_ends import SURFACE_KINDS, fits_near
 from evmap.maps.refit import end_moves, refits, unmoved
 from evmap.maps.running_mass import NOISE_STAGE, carried, with_running
 from evmap.maps.segments import CONSOLIDATE_POSES
@@ -217,18 +217,6 @@ def _same_mass(a: MassFunction, b: MassFunction) -> bool:
     return x.shape == y.shape and bool((x == y).all())
 
 
-def _fits_near(
-    bm: BeliefMap, fits: NDArray[np.float64], config: Config
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The fits (ends p, q) of the map's lines near the lines ``fits`` ((N, 2, 2)): those a corner of them may
-    draw one of them related to (:func:`~evmap.maps.corners.drawn_reach`)."""
-    reach = drawn_reach(config.corners, config.merge)
-    boxes = np.hstack([fits.min(axis=1) - reach, fits.max(axis=1) + reach])
-    near = sorted(bm.near(boxes, "lines")) if len(fits) else []
-    found = np.array([bm.graph.edge(*bm.ends(lid))["fit"] for lid in near], dtype=float).reshape(-1, 2, 2)
-    return found[:, 0], found[:, 1]
-
-
 def _detach(bm: BeliefMap, dissolved: dict[str, tuple[str, str]], affected: set[str]) -> tuple[list[_Line], Removed]:
     """Remove the dissolved lines, the lines at affected points, and those points.
 
@@ -330,7 +318,10 @@ def _attach(
     fits = np.array([line.fit for line in lines]).reshape(-1, 2, 2)
     corners = None
     if join:
-        others = _fits_near(bm, fits, config) if config.corners.drawn_apart else None
+        others = None
+        if config.corners.drawn_apart:  # the lines near that a corner here may draw one of these related to
+            near = fits_near(bm, fits[:, 0], fits[:, 1], drawn_reach(config.corners, config.merge))[1]
+            others = near[:, 0], near[:, 1]
         placed = np.array([[bm.graph.nodes[n]["xy"] if n else (np.nan, np.nan) for n in line.fixed] for line in lines])
         corners = find_corners(
             fits[:, 0], fits[:, 1], config.corners, viewpoint, merge=config.merge, others=others, placed=placed

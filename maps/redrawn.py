@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from evmap.maps.corners import drawn_reach, drawn_turn, loose_merge
 from evmap.maps.merging import related_pairs
-from evmap.maps.near_ends import linked
+from evmap.maps.near_ends import fits_near, linked
 from evmap.sources.config_model import Config
 
 if TYPE_CHECKING:
@@ -33,21 +33,10 @@ def redrawn_refits(
 ) -> set[str]:
     """The refitted lines of ``fits`` (new fits; their points' ``moves``) whose refits a whole rebuild would not
     leave as they are: a corner would then draw a line near them related to another line
-    (:func:`_drawn_related`), or a corner of theirs that moves holds a line drawn between two corners whose drawing
-    may matter to either (:func:`drawing_matters`)."""
-    return _drawn_related(bm, fits, moves, config) | _redrawn_between(bm, fits, moves, config)
-
-
-def _redrawn_between(
-    bm: BeliefMap,
-    fits: dict[str, NDArray[np.float64]],
-    moves: dict[str, list[tuple[str, tuple[float, float]]]],
-    config: Config,
-) -> set[str]:
-    """The refitted lines with a corner that moves and holds a line drawn between two corners whose drawing may
-    matter to either (:func:`drawing_matters`): a whole rebuild finds its corners anew."""
+    (:func:`_drawn_related`), or a corner of theirs that moves holds a line whose drawing to its other end's corner
+    may matter there (:func:`drawing_matters`)."""
     g = bm.graph
-    failed = set()
+    failed = _drawn_related(bm, fits, moves, config)
     for lid, found in moves.items():
         nodes = {node for node, _ in found}
         lines = {d["id"] for node in nodes if g.nodes[node]["kind"] == "corner" for d in g.adj[node].values()}
@@ -100,8 +89,7 @@ def _drawn_related(
     failed: set[str] = set()
     if drawn:
         dp, dq = np.array([d[1] for d in drawn]), np.array([d[2] for d in drawn])
-        boxes = np.hstack([np.minimum(dp, dq) - reach, np.maximum(dp, dq) + reach])
-        others = sorted(bm.near(boxes, "lines") | fits.keys())
+        others = sorted(set(fits_near(bm, dp, dq, reach)[0]) | fits.keys())
         fitted = np.array([fit(lid) for lid in others])
         a, b, _ = related_pairs(dp, dq, config.merge, (fitted[:, 0], fitted[:, 1]))
         for r, j in zip(a.tolist(), b.tolist(), strict=True):
@@ -121,11 +109,9 @@ def paired_lines(bm: BeliefMap, p: NDArray[np.float64], q: NDArray[np.float64], 
 
 def _pairs(bm: BeliefMap, p: NDArray[np.float64], q: NDArray[np.float64], config: Config) -> list[tuple[int, str]]:
     """(row of p-q, map line) of each pair of :func:`paired_lines`."""
-    reach = drawn_reach(config.corners, config.merge)
-    ids = sorted(bm.near(np.hstack([np.minimum(p, q) - reach, np.maximum(p, q) + reach]), "lines")) if len(p) else []
+    ids, fits = fits_near(bm, p, q, drawn_reach(config.corners, config.merge))
     if not ids:
         return []
-    fits = np.array([bm.graph.edge(*bm.ends(lid))["fit"] for lid in ids], dtype=float)
     d = fits[:, 1] - fits[:, 0]
     turn = drawn_turn(config.corners, np.hypot(*d.T))
     a, b, _ = related_pairs(
