@@ -108,7 +108,11 @@ def ray_fan(s: Sensed, params: FreeSpaceParams) -> shapely.Geometry:
     # each run of adjacent sectors is one star polygon (a union of thousands of triangles whose edges do not
     # meet would cost a second per pose)
     breaks = np.flatnonzero(s.bearing[pair[1:]] != s.bearing[pair[:-1] + 1]) + 1
-    runs = [shapely.Polygon(np.vstack([s.origin, c.reshape(-1, 2)])) for c in np.split(corners, breaks)]
+    runs = np.array([shapely.Polygon(np.vstack([s.origin, c.reshape(-1, 2)])) for c in np.split(corners, breaks)])
+    # rays a hair apart in bearing at very different ranges (a camera reporting every return a ray lit, where
+    # its snapshots overlap) zigzag along the rays: such a run may cross itself, and a union with it fails
+    bad = ~shapely.is_valid(runs)
+    runs[bad] = shapely.make_valid(runs[bad])
     return shapely.union_all(runs)
 
 

@@ -69,6 +69,22 @@ def test_sonar_sectors_end_at_the_stripe_and_what_the_stripe_saw_stays_free():
     assert kept >= 0.9 * seen
 
 
+def test_a_fan_through_rays_alternating_between_two_ranges_is_united():
+    """A `threshold` camera reports every return a ray lit: in a generated world (seed 171, world 15) one pose's
+    rays a hair apart in bearing alternated between a sunlit patch at 1.36 m and a wall at 3.1 m where two
+    snapshots overlap, the fan crossed itself, and the union of its runs failed (GEOS: "unable to assign free
+    hole to a shell")."""
+    from evmap.maps.app.compare_metrics import fuse_rules
+    from evmap.sources.sim.worldgen import generate_world, world_seed
+    from evmap.sources.sim.worldgen_params import WorldGenParams
+
+    world = generate_world(world_seed(171, 15), WorldGenParams(column_max_share=0.0))
+    run = fuse_rules(world, load_config("default"), ["dempster"])["dempster"]
+    assert sensed(run.map)[0].all_returns
+    free = free_space(run.map)
+    assert free.is_valid and free.area > 10
+
+
 def test_sonar_sectors_end_at_the_stripe_s_range_where_it_returned_nothing():
     """A tour of a generated office (seed 73, world 1): sonar sectors reached 8-10 m out, beyond the stripe's 8 m,
     where it returned nothing, across oblique walls the sonar did not hear (252 free cells behind opaque walls, up to
