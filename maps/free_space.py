@@ -24,6 +24,11 @@ chord between the two points bounds it. A ray that returned nothing bounds it at
 the contour sensor's range (``sensors.lsl.max_range``): the stripe tells that
 nothing opaque stands within it, and nothing tells beyond it, where a sector may
 cross a wall the sonar did not hear (a specular wall is silent off its normal).
+A ray whose point lies on a segment judged noise returned nothing when the sensor
+reports every return a ray lit (a stripe camera keeping every pixel above its
+threshold: the ray went on through the sunlit patch); with one return a ray (a
+camera keeping a column's brightest pixel, a laser) nothing tells what lies beyond
+the point, and it bounds the sonar there as a surface would.
 Bearings the contour did not look at leave the sonar's free space as it is.
 
 A sensor sees nothing behind a surface, so each pose's free space ends at the
@@ -335,7 +340,10 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
         if s.sonar is not None:
             sonar = open_space(s.sonar, extract_rcds(s.sonar, config.rcd, primitive=True), config.open_space)
             far = s.sonar.params.max_range + 1.0
-            bound = contour_bound(surfaces, params, far, unreturned=config.sensors.lsl.max_range)
+            # a ray on a segment judged noise went on through it when the sensor reports every return; with one
+            # return a ray (a sunlit pixel brighter than the stripe) nothing tells what lies beyond its point
+            stripe = surfaces if s.all_returns else s
+            bound = contour_bound(stripe, params, far, unreturned=config.sensors.lsl.max_range)
             seen.append(sonar if bound is None else shapely.intersection(sonar, bound))
         free = unite(seen)
         if len(p) and not free.is_empty:
