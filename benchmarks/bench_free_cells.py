@@ -11,6 +11,9 @@ scenario, and summed over the generated worlds of each seed:
   cylinder's rim), of the cells those surfaces cross: a planner would drive into them;
 - ``behind``: free cells behind true surfaces (:func:`~evmap.maps.app.compare_hazards.free_behind_walls`),
   of all free cells;
+- ``unheard``: of all free cells, those behind panes alone that no sonar reading heard at normal incidence
+  (``behind`` less :func:`~evmap.maps.app.compare_hazards.free_behind_perceived`): free air the stripe saw
+  through glass that neither sensor reported, beyond what the map can know;
 - ``kept``: the places the stripe saw free that the grid keeps free
   (:func:`~evmap.maps.app.compare_hazards.free_seen_kept`);
 - ``free s``: the seconds (CPU) of the map's free space (:func:`evmap.maps.free_space.free_space`).
@@ -27,8 +30,14 @@ from importlib.resources import files
 import numpy as np
 
 from evmap.maps.app.compare_configs import resolve_config
-from evmap.maps.app.compare_hazards import GRID_RESOLUTION, free_behind_walls, free_seen_kept, stripe_seen
-from evmap.maps.app.compare_metrics import fuse_configs
+from evmap.maps.app.compare_hazards import (
+    GRID_RESOLUTION,
+    free_behind_perceived,
+    free_behind_walls,
+    free_seen_kept,
+    stripe_seen,
+)
+from evmap.maps.app.compare_metrics import fuse_configs, heard_glass
 from evmap.maps.app.run import Run
 from evmap.maps.free_space import free_space
 from evmap.maps.occupancy import FREE_MAX, occupancy_from_masses, occupancy_masses, segment_cells
@@ -41,7 +50,7 @@ RIM_SIDES = 32
 
 def figures(run: Run) -> np.ndarray:
     """(free cells on walls, cells on walls, free cells behind walls, free cells, places kept, places seen,
-    free-space seconds) of one run."""
+    free-space seconds, free cells behind panes no reading heard) of one run."""
     start = time.process_time()
     free_space(run.map)
     seconds = time.process_time() - start
@@ -59,7 +68,8 @@ def figures(run: Run) -> np.ndarray:
     on_walls = int(((value >= 0) & (value <= FREE_MAX)).sum())
     behind, _, free = free_behind_walls(run.map, run.world)
     kept, seen = free_seen_kept(run.map, stripe_seen(run.world, run.config))
-    return np.array([on_walls, len(cells), behind, free, kept, seen, seconds], dtype=float)
+    perceived = free_behind_perceived(run.map, run.world, heard_glass(run.world, [o.sonar for o in run.observations]))
+    return np.array([on_walls, len(cells), behind, free, kept, seen, seconds, behind - perceived], dtype=float)
 
 
 def fused(scenario: Scenario) -> Run:
@@ -70,7 +80,7 @@ def fused(scenario: Scenario) -> Run:
 def row(label: str, f: np.ndarray) -> str:
     return (
         f"{label:22} {int(f[0]):6d} / {int(f[1]):6d} {int(f[2]):8d} / {int(f[3]):8d} ({f[2] / max(f[3], 1):.4f}) "
-        f"{f[4] / max(f[5], 1):7.3f} {f[6]:7.2f}"
+        f"{f[7] / max(f[3], 1):8.4f} {f[4] / max(f[5], 1):7.3f} {f[6]:7.2f}"
     )
 
 
@@ -79,7 +89,9 @@ def main() -> None:
     parser.add_argument("--worlds", type=int, default=25)
     parser.add_argument("--seeds", type=int, nargs="+", default=[41])
     args = parser.parse_args()
-    print(f"{'scene':22} {'on walls / wall cells':>15} {'behind / free cells':>28} {'kept':>7} {'free s':>7}")
+    print(
+        f"{'scene':22} {'on walls / wall cells':>15} {'behind / free cells':>28} {'unheard':>8} {'kept':>7} {'free s':>7}"
+    )
     for path in sorted(files("evmap.configs").joinpath("scenarios").iterdir()):
         if path.name.endswith(".yaml"):
             print(row(path.name.removesuffix(".yaml"), figures(fused(load_scenario(path)))), flush=True)

@@ -90,6 +90,27 @@ def test_a_ray_on_a_point_judged_noise_bounds_the_sonar_when_the_camera_keeps_on
     assert kept >= 0.85 * seen
 
 
+def test_free_cells_behind_walls_split_by_what_a_sensor_reported():
+    """A glass facade of four windows (seed 133, world 4): the stripe sees the rooms beyond the panes free, and the
+    sonar heard two of them at normal incidence. The cells behind the panes no reading heard are beyond what the
+    sensors report; those behind opaque walls or heard panes are what the map could have known."""
+    from evmap.maps.app.compare_hazards import free_behind_perceived, free_behind_walls
+    from evmap.maps.app.compare_metrics import fuse_rules, heard_glass
+    from evmap.sources.sim.worldgen import generate_world, world_seed
+    from evmap.sources.sim.worldgen_params import WorldGenParams
+
+    world = generate_world(world_seed(133, 4), WorldGenParams(column_max_share=0.5))
+    run = fuse_rules(world, load_config("default"), ["dempster"])["dempster"]
+    behind, behind_opaque, _ = free_behind_walls(run.map, run.world)
+    s = run.world.surfaces()
+    heard = heard_glass(run.world, [obs.sonar for obs in run.observations])
+    assert sorted(s.segment_ids[heard]) == ["window-5", "window-7"]
+    perceived = free_behind_perceived(run.map, run.world, heard)
+    assert behind_opaque < perceived < 0.5 * behind  # most lie behind the panes no reading heard
+    assert free_behind_perceived(run.map, run.world, np.zeros(0, dtype=np.intp)) == behind_opaque
+    assert free_behind_perceived(run.map, run.world, np.flatnonzero(~s.lsl_opaque)) == behind
+
+
 def test_a_fan_through_rays_alternating_between_two_ranges_is_united():
     """A `threshold` camera reports every return a ray lit: in a generated world (seed 171, world 15) one pose's
     rays a hair apart in bearing alternated between a sunlit patch at 1.36 m and a wall at 3.1 m where two

@@ -9,6 +9,10 @@
   than one cell before it; and of those, the cells hidden by opaque surfaces alone
   (the rest the stripe saw through glass: free air, but beyond a pane that only the
   sonar hears, at normal incidence).
+- :func:`free_behind_perceived`: of those, the cells hidden by the surfaces a sensor
+  here reports, opaque ones and the panes the sonar heard at normal incidence: the
+  rest lie behind panes neither sensor reported (free air the stripe saw through
+  glass that no reading heard), beyond what the map can know.
 - :func:`free_seen_kept`: of the places the stripe saw free (:func:`stripe_seen`: a
   lattice point in front of the first surface a pose's ray meets, glass included,
   the ray returning from an opaque one within the stripe's range, not within a cell
@@ -41,6 +45,7 @@ __all__ = [
     "SEEN_STEP",
     "SPURIOUS_FAR",
     "SPURIOUS_ON_LINE",
+    "free_behind_perceived",
     "free_behind_walls",
     "free_seen_kept",
     "spurious_unidentified",
@@ -107,6 +112,23 @@ def free_behind_walls(bm: BeliefMap, world: World) -> tuple[int, int, int]:
         s.cylinder_radii[s.cylinder_lsl_opaque],
     )
     return int(hidden.sum()), int(opaque.sum()), len(centre)
+
+
+def free_behind_perceived(bm: BeliefMap, world: World, heard: NDArray[np.intp]) -> int:
+    """Free cells of the map's grid behind opaque true surfaces or the panes ``heard`` (indices into
+    ``world.surfaces()``, those the sonar heard at normal incidence:
+    :func:`~evmap.maps.app.compare_metrics.heard_glass`) (module doc).
+    """
+    centre = _free_centres(bm)
+    if not len(centre):
+        return 0
+    s = world.surfaces()
+    reported = s.lsl_opaque.copy()
+    reported[np.asarray(heard, dtype=np.intp)] = True
+    opaque = s.cylinder_lsl_opaque
+    return int(
+        _hidden(world, centre, s.p[reported], s.q[reported], s.cylinder_centers[opaque], s.cylinder_radii[opaque]).sum()
+    )
 
 
 def free_seen_kept(bm: BeliefMap, seen: NDArray[np.float64]) -> tuple[int, int]:
