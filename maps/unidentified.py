@@ -15,8 +15,11 @@ believed lines, and of the chords, at most ``unidentified.window_width`` long,
 across gaps between believed lines that the chord continues: panes in a wall)
 is explained too: sound does not come back
 through the surface the stripe measured, so the echo is a multiple reflection.
-An RCD whose whole arc is explained makes no object; one beside a wall (a
-window in it) makes its object on the part beside the line. An object that a
+An RCD makes its object at the unexplained arc point nearest where the sonar
+model puts its target, at most ``unidentified.merge_radius`` from it along the
+arc (one beside a wall, a window in it, on the part beside the line), and none
+where the arc is explained that near: farther along the arc lies no place of
+that target. An object that a
 believed line comes to explain as later poses extend the lines is removed
 (:func:`evmap.maps.explained_objects.drop_explained`).
 
@@ -144,9 +147,11 @@ def _unexplained(
     aim: NDArray[np.float64],
     config: Config,
 ) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
-    """The RCDs of ``keep`` whose arc the map does not explain (module doc), each with its object's place.
+    """The RCDs of ``keep`` whose arc the map does not explain near their aim (module doc), each with its object's
+    place.
 
-    The place is the arc point left unexplained nearest the bearing ``aim`` (one per RCD of ``keep``).
+    The place is the arc point left unexplained nearest the bearing ``aim`` (one per RCD of ``keep``), at most
+    ``unidentified.merge_radius`` from it along the arc.
     """
     actual, s, params = check.actual, check.surfaces, config.unidentified
     shift = aim - actual.direction[keep]  # within the RCD's width; 0 where aimed at its direction
@@ -165,6 +170,9 @@ def _unexplained(
             back = actual.range[keep, None, None] - params.occlusion_margin - FreeSpaceParams().margin
             inner = pose[:2] + np.maximum(back, 0.0) * _unit(angles)
             free &= shapely.contains_xy(bound, inner[..., 0], inner[..., 1])
+    # the sonar model puts the target at the aim: the object moves along the arc no farther than one object's
+    # extent (merge_radius) from it; an RCD whose arc is explained that near makes no object
+    free &= actual.range[keep, None] * np.abs(offsets - shift[:, None]) <= params.merge_radius
     best = np.argmin(np.where(free, np.abs(offsets - shift[:, None]), np.inf), axis=1)
     ok = free.any(axis=1)
     return keep[ok], arc[np.flatnonzero(ok), best[ok]]
