@@ -135,8 +135,7 @@ def add_unidentified(
 
 
 ARC_SAMPLES = 9
-"""Points along an RCD's arc checked against the map's lines: across its width, and as many within
-``unidentified.merge_radius`` of the point it aims at (the middle one)."""
+"""Points along an RCD's arc checked against the map's lines (and the point it aims at)."""
 
 
 def _unexplained(
@@ -156,14 +155,8 @@ def _unexplained(
     """
     actual, s, params = check.actual, check.surfaces, config.unidentified
     shift = aim - actual.direction[keep]  # within the RCD's width; 0 where aimed at its direction
-    # the sonar model puts the target at the aim: the object moves along the arc no farther than one object's
-    # extent (merge_radius) from it; an RCD whose arc is explained that near makes none. The arc is sampled
-    # across its width and, finer, within that extent of the aim (the aim amid those samples)
-    half_width = actual.width[keep, None] / 2
-    reach = params.merge_radius / np.maximum(actual.range[keep, None], 1e-9)
-    near_aim = np.clip(shift[:, None] + reach * np.linspace(-1.0, 1.0, ARC_SAMPLES), -half_width, half_width)
-    offsets = np.column_stack([half_width * np.linspace(-1.0, 1.0, ARC_SAMPLES), near_aim])
-    angles = actual.direction[keep, None] + offsets  # (R, 2 ARC_SAMPLES)
+    offsets = np.column_stack([actual.width[keep, None] * np.linspace(-0.5, 0.5, ARC_SAMPLES), shift])
+    angles = actual.direction[keep, None] + offsets  # (R, ARC_SAMPLES + 1): the arc's samples and the aim
     arc = pose[:2] + actual.range[keep, None, None] * _unit(angles)
     free = np.ones(angles.shape, dtype=bool)
     believed = np.array([bm.mass(line).belief("real") >= BELIEVED for line in s.segment_ids], dtype=bool)
@@ -177,7 +170,9 @@ def _unexplained(
             back = actual.range[keep, None, None] - params.occlusion_margin - FreeSpaceParams().margin
             inner = pose[:2] + np.maximum(back, 0.0) * _unit(angles)
             free &= shapely.contains_xy(bound, inner[..., 0], inner[..., 1])
-    free &= np.abs(offsets - shift[:, None]) <= reach + 1e-12  # the near samples at the extent itself too
+    # the sonar model puts the target at the aim: the object moves along the arc no farther than one object's
+    # extent (merge_radius) from it; an RCD whose arc is explained that near makes no object
+    free &= actual.range[keep, None] * np.abs(offsets - shift[:, None]) <= params.merge_radius
     best = np.argmin(np.where(free, np.abs(offsets - shift[:, None]), np.inf), axis=1)
     ok = free.any(axis=1)
     return keep[ok], arc[np.flatnonzero(ok), best[ok]]
