@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from evmap.maps.sensed import Sensed, laid_out, rays_within
+from evmap.maps.sensed import Sensed, farthest_returns, laid_out, rays_within
 from evmap.sources.geometry import crossings, near_segments
 from evmap.sources.params import LslParams
 
@@ -118,13 +118,9 @@ def went_on(
     The first ray's point on the patch has the wall beyond it; the last ray's point is off the patch.
     """
     out = np.zeros(len(s.range), dtype=bool)
-    ok = np.flatnonzero(np.isfinite(s.range))
+    ok = np.flatnonzero(np.isfinite(farthest_returns(s).range))
     if not s.all_returns or not len(noise[0]) or not len(ok):
         return out
-    _, column = np.unique(s.bearing[ok], return_inverse=True)
-    farthest = np.full(column.max() + 1, -np.inf)
-    np.maximum.at(farthest, column, s.range[ok])
-    ok = ok[s.range[ok] >= farthest[column]]
     r = s.range[ok]
     xy = s.origin + r[:, None] * np.column_stack([np.cos(s.bearing[ok]), np.sin(s.bearing[ok])])
     tol = params.tolerance + 3 * params.range_noise * r

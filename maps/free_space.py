@@ -24,11 +24,14 @@ chord between the two points bounds it. A ray that returned nothing bounds it at
 the contour sensor's range (``sensors.lsl.max_range``): the stripe tells that
 nothing opaque stands within it, and nothing tells beyond it, where a sector may
 cross a wall the sonar did not hear (a specular wall is silent off its normal).
-A ray whose point lies on a segment judged noise returned nothing when the sensor
-reports every return a ray lit (a stripe camera keeping every pixel above its
-threshold: the ray went on through the sunlit patch); with one return a ray (a
-camera keeping a column's brightest pixel, a laser) nothing tells what lies beyond
-the point, and it bounds the sonar there as a surface would.
+Where the sensor reports every return a ray lit (a stripe camera keeping every
+pixel above its threshold), a ray went on through every return of its bearing but
+the farthest (sunlit pixels: no surface stops the stripe short of one it lit), and
+only the farthest bounds the sonar (:func:`~evmap.maps.sensed.farthest_returns`). The farthest bounds it
+even on a segment judged noise: a sunlit patch with nothing behind it within range
+and a wall look alike to the stripe, and a planner trusts what the map calls free.
+With one return a ray (a camera keeping a column's brightest pixel, a laser) every
+point bounds it: nothing tells what lies beyond a point.
 Bearings the contour did not look at leave the sonar's free space as it is.
 
 A sensor sees nothing behind a surface, so each pose's free space ends at the
@@ -59,7 +62,7 @@ from numpy.typing import NDArray
 
 from evmap.maps.object_faces import object_faces
 from evmap.maps.planner import lines
-from evmap.maps.sensed import Sensed, sensed
+from evmap.maps.sensed import Sensed, farthest_returns, sensed
 from evmap.sources.geometry import near_segments
 from evmap.sources.open_space import GRID, open_space, unite
 from evmap.sources.rcd import extract_rcds
@@ -340,9 +343,7 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
         if s.sonar is not None:
             sonar = open_space(s.sonar, extract_rcds(s.sonar, config.rcd, primitive=True), config.open_space)
             far = s.sonar.params.max_range + 1.0
-            # a ray on a segment judged noise went on through it when the sensor reports every return; with one
-            # return a ray (a sunlit pixel brighter than the stripe) nothing tells what lies beyond its point
-            stripe = surfaces if s.all_returns else s
+            stripe = farthest_returns(s) if s.all_returns else s
             bound = contour_bound(stripe, params, far, unreturned=config.sensors.lsl.max_range)
             seen.append(sonar if bound is None else shapely.intersection(sonar, bound))
         free = unite(seen)

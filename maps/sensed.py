@@ -13,7 +13,7 @@ computed from them) the form that ``map.json`` keeps in its optional graph key
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
@@ -33,6 +33,7 @@ __all__ = [
     "SENSED_FEATURES",
     "SENSED_KEY",
     "Sensed",
+    "farthest_returns",
     "features_checkpoint",
     "forget",
     "heard_from",
@@ -227,6 +228,27 @@ def heard_from(bm: BeliefMap, uid: str) -> list[int]:
 def pose_sensed(bm: BeliefMap, pose_index: int) -> Sensed | None:
     """What one pose sensed, if the map remembers it."""
     return _memory(bm).get(int(pose_index))
+
+
+def farthest_returns(s: Sensed) -> Sensed:
+    """The pose's readings with only the farthest return of each bearing still returned.
+
+    >>> s = Sensed(0, np.zeros(2), np.array([0.0, 0.0, 0.1]), np.array([1.0, 3.0, 1.0]), None, all_returns=True)
+    >>> farthest_returns(s).range.tolist()  # a sunlit patch at 1 m, the stripe on a wall behind it at 3 m
+    [nan, 3.0, 1.0]
+    """
+    ok = np.flatnonzero(np.isfinite(s.range))
+    if not len(ok):
+        return s
+    _, column = np.unique(s.bearing[ok], return_inverse=True)
+    far = np.full(column.max() + 1, -np.inf)
+    np.maximum.at(far, column, s.range[ok])
+    nearer = ok[s.range[ok] < far[column]]
+    if not len(nearer):
+        return s
+    rng = s.range.copy()
+    rng[nearer] = np.nan
+    return replace(s, range=rng)
 
 
 def laid_out(

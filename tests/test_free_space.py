@@ -90,6 +90,23 @@ def test_a_ray_on_a_point_judged_noise_bounds_the_sonar_when_the_camera_keeps_on
     assert kept >= 0.85 * seen
 
 
+def test_the_farthest_return_of_a_bearing_bounds_the_sonar_though_judged_noise():
+    """The lab scenario, a `threshold` camera: the foam screen's 26 cm end piece is real but judged noise (the
+    sonar's forward model expects an edge echo that the absorbing screen does not give). Its rays, taken to have
+    gone on through a sunlit patch, let the sonar's sectors free the screen's shadow (45 free cells behind opaque
+    walls). The camera reported nothing beyond them: a patch with nothing behind it and a wall look alike."""
+    from evmap.maps.app.compare_hazards import free_behind_walls, free_seen_kept, stripe_seen
+    from evmap.maps.app.compare_metrics import fuse_rules
+
+    run = fuse_rules(load_scenario(configs.path("scenarios/lab.yaml")), load_config("default"), ["dempster"])["dempster"]
+    store = run.map.segments
+    assert sensed(run.map)[0].all_returns and (store.eliminated & (store.truth == "real")).sum() == 1
+    behind, _, free = free_behind_walls(run.map, run.world)
+    kept, seen = free_seen_kept(run.map, stripe_seen(run.world, run.config))
+    assert free > 5000 and behind == 0
+    assert kept >= 0.95 * seen  # 2,093 of 2,180 places, as before
+
+
 def test_free_cells_behind_walls_split_by_what_a_sensor_reported():
     """A glass facade of four windows (seed 133, world 4): the stripe sees the rooms beyond the panes free, and the
     sonar heard two of them at normal incidence. The cells behind the panes no reading heard are beyond what the
