@@ -98,7 +98,9 @@ def test_the_farthest_return_of_a_bearing_bounds_the_sonar_though_judged_noise()
     from evmap.maps.app.compare_hazards import free_behind_walls, free_seen_kept, stripe_seen
     from evmap.maps.app.compare_metrics import fuse_rules
 
-    run = fuse_rules(load_scenario(configs.path("scenarios/lab.yaml")), load_config("default"), ["dempster"])["dempster"]
+    run = fuse_rules(load_scenario(configs.path("scenarios/lab.yaml")), load_config("default"), ["dempster"])[
+        "dempster"
+    ]
     store = run.map.segments
     assert sensed(run.map)[0].all_returns and (store.eliminated & (store.truth == "real")).sum() == 1
     behind, _, free = free_behind_walls(run.map, run.world)
