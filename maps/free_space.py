@@ -32,7 +32,11 @@ even on a segment judged noise: a sunlit patch with nothing behind it within ran
 and a wall look alike to the stripe, and a planner trusts what the map calls free.
 With one return a ray (a camera keeping a column's brightest pixel, a laser) every
 point bounds it: nothing tells what lies beyond a point.
-Bearings the contour did not look at leave the sonar's free space as it is.
+Across a jump in range from one surface's run of bearings to another's, the bound
+goes on at the nearer range to the farther one's bearing, as the fans do: the
+end of a wall falls between two rays, and what lies between them beyond the
+nearer point was not seen. Bearings the contour did not look at leave the sonar's
+free space as it is.
 
 A sensor sees nothing behind a surface, so each pose's free space ends at the
 first believed line (``Bel(real) >= min_belief``) that it meets: the line's
@@ -203,6 +207,8 @@ def contour_bound(
     reach: float,
     bridge_ok: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.bool_]] | None = None,
     unreturned: float | None = None,
+    *,
+    seen_only: bool = False,
 ) -> shapely.Geometry | None:
     """What the contour of one pose leaves possible to be free: the star polygon through its stripe points.
 
@@ -211,7 +217,10 @@ def contour_bound(
     (and pass ``bridge_ok(a, b)``, (K, 2) each, when given), at the chord between those points;
     other rays that returned nothing at ``unreturned`` (less ``margin``) when given, the range
     within which they tell that nothing opaque stands; those rays when it is not given, and
-    bearings with no ray (more than ``max_gap`` from the nearest), at ``reach``.
+    bearings with no ray (more than ``max_gap`` from the nearest), at ``reach``. With ``seen_only``,
+    across a jump in range between neighbouring bearings (as :func:`ray_fan` tells one) it goes on at
+    the nearer range to the farther one's bearing: what lies between them beyond the nearer was not
+    seen (without, the edge between the two cuts across it: the bound of what the stripe may have hidden).
     None when the pose has no returned ray.
 
     >>> bearing = np.radians(np.arange(-180.0, 180.0, 1.0))
@@ -228,6 +237,11 @@ def contour_bound(
     True
     >>> near = contour_bound(Sensed(0, np.zeros(2), bearing, rng, None), FreeSpaceParams(), 10.0, unreturned=4.0)
     >>> [bool(near.contains(shapely.Point(-x, 0))) for x in (3.9, 4.0)]  # nothing returned within 4 m
+    [True, False]
+    >>> end = np.where(bearing <= 0, 2.0, 6.0)  # a wall's end between the rays at 0 and 1 deg, a far wall beyond
+    >>> edge = Sensed(0, np.zeros(2), bearing, end, None)
+    >>> [bool(contour_bound(edge, FreeSpaceParams(), 10.0, seen_only=s).contains(shapely.Point(3, 0.04)))
+    ...  for s in (False, True)]  # 1 m behind the end, between the two rays
     [True, False]
     """
     ok = np.isfinite(s.range) & (s.range > 0)
@@ -260,8 +274,22 @@ def contour_bound(
     r_all = np.concatenate([radius, np.full(2 * len(gap), reach)])
     order = np.argsort(t_all, kind="stable")
     t_all, r_all = t_all[order], r_all[order]
-    angle, first = np.unique(t_all, return_index=True)  # one vertex per bearing, the nearest: a simple polygon
+    # one vertex per bearing (to a nanoradian: overlapping snapshots' rays), the nearest: a simple polygon
+    angle, first = np.unique(np.round(t_all, 9), return_index=True)
     r_all = np.minimum.reduceat(r_all, first)
+    if seen_only:  # a step at the nearer range, a hair short of the farther one's bearing, at every jump
+        step = np.diff(np.append(angle, angle[0] + 2 * np.pi))
+        r_next = np.roll(r_all, -1)
+        jump = np.abs(r_all - r_next) > params.steepness * np.maximum(r_all, r_next) * step
+        # an edge: one surface's run of bearings, then another's (rays alternating between a sunlit pixel and the
+        # wall behind it, a camera keeping one a column, are no edge: nothing is hidden between them)
+        jump &= ~np.roll(jump, 1) & ~np.roll(jump, -1)
+        hair = np.minimum(1e-6, step / 4)
+        out, back = jump & (r_all < r_next), jump & (r_all > r_next)
+        angle = np.concatenate([angle, angle[out] + step[out] - hair[out], angle[back] + hair[back]])
+        r_all = np.concatenate([r_all, r_all[out], r_next[back]])
+        order = np.argsort(angle, kind="stable")
+        angle, r_all = angle[order], r_all[order]
     bound = shapely.Polygon(s.origin + r_all[:, None] * np.column_stack([np.cos(angle), np.sin(angle)]))
     return bound if bound.is_valid else shapely.make_valid(bound)
 
@@ -344,7 +372,7 @@ def _free_space(bm: BeliefMap, params: FreeSpaceParams) -> shapely.Geometry:
             sonar = open_space(s.sonar, extract_rcds(s.sonar, config.rcd, primitive=True), config.open_space)
             far = s.sonar.params.max_range + 1.0
             stripe = farthest_returns(s) if s.all_returns else s
-            bound = contour_bound(stripe, params, far, unreturned=config.sensors.lsl.max_range)
+            bound = contour_bound(stripe, params, far, unreturned=config.sensors.lsl.max_range, seen_only=True)
             seen.append(sonar if bound is None else shapely.intersection(sonar, bound))
         free = unite(seen)
         if len(p) and not free.is_empty:

@@ -126,6 +126,9 @@ def test_free_cells_behind_walls_split_by_what_a_sensor_reported():
     assert sorted(s.segment_ids[heard]) == ["window-5", "window-7"]
     perceived = free_behind_perceived(run.map, run.world, heard)
     assert behind_opaque < perceived < 0.5 * behind  # most lie behind the panes no reading heard
+    # the shadow of a 35 cm stub whose end fell between two rays, 0.1-0.9 m behind it: the sonar's sector reached
+    # the edge between the ray on the stub and the next ray's far wall (12 free cells behind opaque walls)
+    assert behind_opaque == 0
     assert free_behind_perceived(run.map, run.world, np.zeros(0, dtype=np.intp)) == behind_opaque
     assert free_behind_perceived(run.map, run.world, np.flatnonzero(~s.lsl_opaque)) == behind
 
