@@ -118,9 +118,9 @@ def went_on(
     The first ray's point on the patch has the wall beyond it; the last ray's point is off the patch.
     """
     out = np.zeros(len(s.range), dtype=bool)
-    ok = np.flatnonzero(np.isfinite(farthest_returns(s).range))
-    if not s.all_returns or not len(noise[0]) or not len(ok):
+    if not s.all_returns or not len(noise[0]):
         return out
+    ok = np.flatnonzero(np.isfinite(farthest_returns(s).range))
     r = s.range[ok]
     xy = s.origin + r[:, None] * np.column_stack([np.cos(s.bearing[ok]), np.sin(s.bearing[ok])])
     tol = params.tolerance + 3 * params.range_noise * r
