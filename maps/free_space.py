@@ -177,10 +177,17 @@ def _pairs(s: Sensed, params: FreeSpaceParams) -> tuple[NDArray[np.intp], NDArra
     if not len(pair):
         return None
     a, b = r[pair], r[pair + 1]
-    jump = np.abs(a - b) > params.steepness * np.maximum(a, b) * step[pair]
+    jump = _jump(a, b, step[pair], params)
     a, b = np.where(jump, np.minimum(a, b), a), np.where(jump, np.minimum(a, b), b)
     u = np.column_stack([np.cos(s.bearing), np.sin(s.bearing)])
     return pair, s.origin + np.stack([a[:, None] * u[pair], b[:, None] * u[pair + 1]], axis=1)
+
+
+def _jump(
+    a: NDArray[np.float64], b: NDArray[np.float64], step: NDArray[np.float64], params: FreeSpaceParams
+) -> NDArray[np.bool_]:
+    """Whether neighbouring rays ``step`` apart (rad), at ranges ``a`` and ``b``, met no one surface (``steepness``)."""
+    return np.abs(a - b) > params.steepness * np.maximum(a, b) * step
 
 
 def surface_rays(s: Sensed, p: NDArray[np.float64], q: NDArray[np.float64], margin: float, *, on: bool) -> Sensed:
@@ -280,7 +287,7 @@ def contour_bound(
     if seen_only:  # a step at the nearer range, a hair short of the farther one's bearing, at every jump
         step = np.diff(np.append(angle, angle[0] + 2 * np.pi))
         r_next = np.roll(r_all, -1)
-        jump = np.abs(r_all - r_next) > params.steepness * np.maximum(r_all, r_next) * step
+        jump = _jump(r_all, r_next, step, params)
         # an edge: one surface's run of bearings, then another's (rays alternating between a sunlit pixel and the
         # wall behind it, a camera keeping one a column, are no edge: nothing is hidden between them)
         jump &= ~np.roll(jump, 1) & ~np.roll(jump, -1)

@@ -172,8 +172,9 @@ def _unexplained(
             free &= shapely.contains_xy(bound, inner[..., 0], inner[..., 1])
     # the sonar model puts the target at the aim: the object moves along the arc no farther than one object's
     # extent (merge_radius) from it; an RCD whose arc is explained that near makes no object
-    free &= actual.range[keep, None] * np.abs(offsets - shift[:, None]) <= params.merge_radius
-    best = np.argmin(np.where(free, np.abs(offsets - shift[:, None]), np.inf), axis=1)
+    off_aim = np.abs(offsets - shift[:, None])
+    free &= actual.range[keep, None] * off_aim <= params.merge_radius
+    best = np.argmin(np.where(free, off_aim, np.inf), axis=1)
     ok = free.any(axis=1)
     return keep[ok], arc[np.flatnonzero(ok), best[ok]]
 
