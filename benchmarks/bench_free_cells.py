@@ -18,7 +18,10 @@ scenario, and summed over the generated worlds of each seed:
   (:func:`~evmap.maps.app.compare_hazards.free_seen_kept`);
 - ``free s``: the seconds (CPU) of the map's free space (:func:`evmap.maps.free_space.free_space`).
 
-    python benchmarks/bench_free_cells.py [--worlds 25] [--seeds 41]
+With ``--glass LOW HIGH`` the generated worlds' facade panes and windows are LOW-HIGH m wide (the
+generator's defaults: panes 1-2 m, windows 0.8-1.5 m): long glass, as in shopfronts and glass partitions.
+
+    python benchmarks/bench_free_cells.py [--worlds 25] [--seeds 41] [--glass 2 5]
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ from evmap.maps.free_space import free_space
 from evmap.maps.occupancy import FREE_MAX, occupancy_from_masses, occupancy_masses, segment_cells
 from evmap.sources.sim.scenario import Scenario, load_scenario
 from evmap.sources.sim.worldgen import generate_world, world_seed
+from evmap.sources.sim.worldgen_params import WorldGenParams
 
 RIM_SIDES = 32
 """A cylinder's rim is checked as a polygon of this many sides."""
@@ -88,7 +92,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worlds", type=int, default=25)
     parser.add_argument("--seeds", type=int, nargs="+", default=[41])
+    parser.add_argument("--glass", type=float, nargs=2, metavar=("LOW", "HIGH"), help="panes and windows (m)")
     args = parser.parse_args()
+    params = WorldGenParams(pane_width=args.glass, window_width=args.glass) if args.glass else WorldGenParams()
     print(
         f"{'scene':22} {'on walls / wall cells':>15} {'behind / free cells':>28} {'unheard':>8} {'kept':>7} {'free s':>7}"
     )
@@ -97,9 +103,11 @@ def main() -> None:
             print(row(path.name.removesuffix(".yaml"), figures(fused(load_scenario(path)))), flush=True)
     for seed in args.seeds:
         total = sum(
-            figures(fused(generate_world(world_seed(seed, i), name=f"world-{i:04d}"))) for i in range(args.worlds)
+            figures(fused(generate_world(world_seed(seed, i), params, name=f"world-{i:04d}")))
+            for i in range(args.worlds)
         )
-        print(row(f"seed {seed}, {args.worlds} worlds", total), flush=True)
+        glass = f", glass {args.glass[0]:g}-{args.glass[1]:g} m" if args.glass else ""
+        print(row(f"seed {seed}, {args.worlds} worlds{glass}", total), flush=True)
 
 
 if __name__ == "__main__":

@@ -38,14 +38,12 @@ end of a wall falls between two rays, and what lies between them beyond the
 nearer point was not seen. Bearings the contour did not look at leave the sonar's
 free space as it is.
 
-A sensor sees nothing behind a surface, so each pose's free space ends at the
-first believed line (``Bel(real) >= min_belief``) that it meets: the line's
-shadow from the pose is cut away; and at every believed unidentified object, a
-face toward each pose that heard it, ``object_width`` across or the whole window
-it lies in (glass heard at normal incidence: the stripe goes through the pane, the
-sonar does not; :mod:`evmap.maps.object_faces`). The
-map's free space is the union over poses. A map that remembers no pose (hand-made, or from an older file) has its stored
-open space as it is.
+A sensor sees nothing behind a surface, so each pose's free space ends at the first believed line
+(``Bel(real) >= min_belief``) that it meets: the line's shadow from the pose is cut away; and at every
+believed unidentified object, a face toward each pose that heard it, ``object_width`` across or the whole
+window or glass wall it lies in (glass heard at normal incidence: the stripe goes through the pane, the
+sonar does not; :mod:`evmap.maps.object_faces`). The map's free space is the union over poses. A map that
+remembers no pose (hand-made, or from an older file) has its stored open space as it is.
 
 The occupancy grid (:mod:`evmap.maps.occupancy`) takes its free evidence from
 here; ``map.json`` keeps the sensed readings, so the grid of a loaded map is the
@@ -95,7 +93,8 @@ class FreeSpaceParams:
     min_belief: float = 0.5  # lines believed at least this much end the free space
     bridge: float = 2.5  # a gap in the stripe between points at most this far apart (m) is bridged
     object_width: float = 0.6  # a believed unidentified object ends the free space over this width (m)
-    window: float = 4.0  # ... or over the gap between believed lines in line with it on both sides, this wide at most
+    glass_wall: float = 10.0  # ... or over the gap between believed lines in line with it on both sides, this wide
+    window: float = 4.0  # ... or this wide with shorter lines in line between them (panes between mullions)
     in_line: float = 0.1  # an object this close to a believed line's own line is in line with it (m)
     wall_length: float = 0.3  # lines at least this long bound a window (not a chair leg's, nor a door jamb's)
     # neighbouring rays whose ranges differ by more than this times the arc between them met no one surface:

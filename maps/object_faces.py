@@ -6,11 +6,13 @@ a pose that heard it is square to the pose's bearing (a specular surface echoes 
 along its normal), ``object_width`` across: the free space (:mod:`evmap.maps.free_space`)
 ends there. A face in line with believed lines on both sides of it (the object within
 ``in_line`` of each line's own line, their directions within :data:`WALL_ANGLE` of the
-face, each at least ``wall_length`` long) whose nearest ends are at most ``window``
-apart is the chord between those ends instead: the pane of a window, of which the
-sonar hears only the part square to the pose, and the stripe nothing. Lines shorter than
-``wall_length`` (a chair leg's, a door jamb's stub) bound no window: a door is a gap
-in a wall too, and something heard in it is no pane.
+face, each at least ``wall_length`` long) whose nearest ends are at most ``glass_wall``
+apart is the chord between those ends instead: the pane of a window or a glass wall, of
+which the sonar hears only the part square to the pose, and the stripe nothing. Lines
+shorter than ``wall_length`` (a chair leg's, a door jamb's stub, a mullion) bound no
+window: a door is a gap in a wall too, and something heard in it is no pane. With such
+a line in line between the two walls (panes between mullions, or a pane beside a door
+beyond the jamb), the chord is at most ``window`` long.
 """
 
 from __future__ import annotations
@@ -65,8 +67,8 @@ def _window(
     params: FreeSpaceParams,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The ends of the face of an object at ``xy`` square to a pose (``side``: a unit vector along it): the
-    nearest ends of the walls in line with it on either side, when they are at most ``window`` apart; else
-    ``object_width`` across."""
+    nearest ends of the walls in line with it on either side, when they are at most ``glass_wall`` apart (``window``
+    with shorter lines in line between them); else ``object_width`` across."""
     half = side * params.object_width / 2
     wp, wq = walls
     if not len(wp):
@@ -74,18 +76,19 @@ def _window(
     d = wq - wp
     length = np.hypot(*d.T)
     to_line = line_distances(xy, wp, wq)
-    ok = (
-        (np.abs(d @ side) >= np.cos(WALL_ANGLE) * length) & (length >= params.wall_length) & (to_line <= params.in_line)
-    )
+    in_line = (np.abs(d @ side) >= np.cos(WALL_ANGLE) * length) & (to_line <= params.in_line)
+    ok = in_line & (length >= params.wall_length)
     sp, sq = (wp - xy) @ side, (wq - xy) @ side
-    near = np.where(sp < sq, 0, 1)  # which end of each wall is nearer the object along the face
-    right, left = ok & (np.minimum(sp, sq) > 0), ok & (np.maximum(sp, sq) < 0)
+    lo, hi = np.minimum(sp, sq), np.maximum(sp, sq)  # each wall's extent along the face, the object at 0
+    right, left = ok & (lo > 0), ok & (hi < 0)
     if not right.any() or not left.any():
         return xy - half, xy + half
     ends = np.stack([wp, wq], axis=1)
-    r = np.flatnonzero(right)[np.argmin(np.minimum(sp, sq)[right])]
-    l_ = np.flatnonzero(left)[np.argmax(np.maximum(sp, sq)[left])]
+    near = np.where(sp < sq, 0, 1)  # which end of each wall is nearer the object along the face
+    r = np.flatnonzero(right)[np.argmin(lo[right])]
+    l_ = np.flatnonzero(left)[np.argmax(hi[left])]
     a, b = ends[l_, 1 - near[l_]], ends[r, near[r]]
-    if np.hypot(*(b - a)) > params.window:
+    mullions = in_line & ~ok & (lo > hi[l_]) & (hi < lo[r])  # short lines in line between the walls
+    if np.hypot(*(b - a)) > (params.window if mullions.any() else params.glass_wall):
         return xy - half, xy + half
     return a, b

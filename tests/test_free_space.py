@@ -113,7 +113,7 @@ def test_free_cells_behind_walls_split_by_what_a_sensor_reported():
     """A glass facade of four windows (seed 133, world 4): the stripe sees the rooms beyond the panes free, and the
     sonar heard two of them at normal incidence. The cells behind the panes no reading heard are beyond what the
     sensors report; those behind opaque walls or heard panes are what the map could have known."""
-    from evmap.maps.app.compare_hazards import free_behind_perceived, free_behind_walls
+    from evmap.maps.app.compare_hazards import free_behind_perceived, free_behind_walls, free_seen_kept, stripe_seen
     from evmap.maps.app.compare_metrics import fuse_rules, heard_glass
     from evmap.sources.sim.worldgen import generate_world, world_seed
     from evmap.sources.sim.worldgen_params import WorldGenParams
@@ -131,6 +131,9 @@ def test_free_cells_behind_walls_split_by_what_a_sensor_reported():
     assert behind_opaque == 0
     assert free_behind_perceived(run.map, run.world, np.zeros(0, dtype=np.intp)) == behind_opaque
     assert free_behind_perceived(run.map, run.world, np.flatnonzero(~s.lsl_opaque)) == behind
+    # the pane heard lies between mullions, the facade's 15 cm end and a door: a face from the wall before the
+    # facade to the one past the door (8.3 m) shut the room beyond the door, 364 of the 2,558 places seen free
+    assert free_seen_kept(run.map, stripe_seen(run.world, run.config)) == (2009, 2558)
 
 
 def test_a_fan_through_rays_alternating_between_two_ranges_is_united():
@@ -203,6 +206,26 @@ def test_a_pane_heard_between_two_walls_in_line_ends_the_free_space_across_the_w
     front = np.column_stack([x.ravel(), y.ravel()])
     assert free_behind_walls(run.map, run.world)[0] == 0
     assert _grid_free(run.map, front) >= 0.95 * len(front)
+
+
+def test_a_glass_wall_wider_than_the_generated_worlds_panes_ends_the_free_space():
+    """A 6.5 m glass wall between a corridor's walls, heard square from the middle pose, seen through by all
+    three: the window ended the free space up to 4 m wide only (the office's pane is 3 m, the generated worlds'
+    at most 2 m), and 8,608 of the 16,213 free cells lay in the room behind it. The corridor stays as free."""
+    from evmap.maps.app.compare_hazards import free_behind_walls
+    from evmap.maps.app.run import run_scenario
+    from evmap.sources.sim.scenario import parse_scenario
+
+    scene = """{version: 1, name: glass-wall, seed: 3, world: {walls: [
+      {id: corridor, points: [[0, 0], [0, 14]]},
+      {id: room, points: [[2, 0], [2, 4], [7, 4], [7, 10.5], [2, 10.5], [2, 14]]},
+      {id: pane, points: [[2, 4], [2, 10.5]], material: glass}]},
+      robot: {poses: [[1, 7.2, 0], [1, 3, 1.57], [1, 12, -1.57]]}}"""
+    run = run_scenario(parse_scenario(scene, "glass-wall.yaml"), load_config("default"))
+    x, y = np.meshgrid(np.arange(0.3, 1.75, 0.1), np.arange(0.5, 13.5, 0.1))
+    corridor = np.column_stack([x.ravel(), y.ravel()])
+    assert free_behind_walls(run.map, run.world)[0] == 0
+    assert _grid_free(run.map, corridor) == 1299  # as before: 1,299 of the 1,950 places
 
 
 def test_a_chair_leg_and_a_door_jamb_in_line_make_no_window():
