@@ -4,15 +4,18 @@ An unidentified object is something the sonar heard that no line of the map expl
 glass heard at normal incidence, mostly, which the stripe goes through. Its face toward
 a pose that heard it is square to the pose's bearing (a specular surface echoes back
 along its normal), ``object_width`` across: the free space (:mod:`evmap.maps.free_space`)
-ends there. A face in line with believed lines on both sides of it (the object within
-``in_line`` of each line's own line, their directions within :data:`WALL_ANGLE` of the
+ends there. A face in line with believed walls on both sides of it (the object within
+``in_line`` of each wall's own line, their directions within :data:`WALL_ANGLE` of the
 face, each at least ``wall_length`` long) whose nearest ends are at most ``glass_wall``
 apart is the chord between those ends instead: the pane of a window or a glass wall, of
 which the sonar hears only the part square to the pose, and the stripe nothing. Lines
-shorter than ``wall_length`` (a chair leg's, a door jamb's stub, a mullion) bound no
-window: a door is a gap in a wall too, and something heard in it is no pane. With such
-a line in line between the two walls (panes between mullions, or a pane beside a door
-beyond the jamb), the chord is at most ``window`` long.
+shorter than ``wall_length`` (a chair leg's, a door jamb's stub, a mullion) make no wall:
+a door is a gap in a wall too, and something heard in it is no pane. With such a line in
+line between the two walls (panes between mullions) the chord is at most ``window``
+long, and no line between them crosses the face's line or ends on it (a door's jamb:
+the pane beside a door ends there). Else a wall on one side and the nearest line in line
+or meeting the face's line on the other (a mullion, a jamb), at most ``window`` apart,
+bound it: the pane at a facade's end, between its wall and the first mullion.
 """
 
 from __future__ import annotations
@@ -67,28 +70,38 @@ def _window(
     params: FreeSpaceParams,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The ends of the face of an object at ``xy`` square to a pose (``side``: a unit vector along it): the
-    nearest ends of the walls in line with it on either side, when they are at most ``glass_wall`` apart (``window``
-    with shorter lines in line between them); else ``object_width`` across."""
+    nearest ends of the walls (``wall_length`` long at least) in line with it on either side, when they are at
+    most ``glass_wall`` apart (``window`` with shorter lines in line between them: mullions) and no line crosses
+    the face's line between them (a jamb); else those of the nearest lines in line with it or crossing its line on
+    either side, one of them a wall in line, when at most ``window`` apart (a pane between a wall and a mullion);
+    else ``object_width`` across."""
     half = side * params.object_width / 2
     wp, wq = walls
     if not len(wp):
         return xy - half, xy + half
     d = wq - wp
     length = np.hypot(*d.T)
-    to_line = line_distances(xy, wp, wq)
-    in_line = (np.abs(d @ side) >= np.cos(WALL_ANGLE) * length) & (to_line <= params.in_line)
+    in_line = (np.abs(d @ side) >= np.cos(WALL_ANGLE) * length) & (line_distances(xy, wp, wq) <= params.in_line)
     ok = in_line & (length >= params.wall_length)
     sp, sq = (wp - xy) @ side, (wq - xy) @ side
-    lo, hi = np.minimum(sp, sq), np.maximum(sp, sq)  # each wall's extent along the face, the object at 0
-    right, left = ok & (lo > 0), ok & (hi < 0)
-    if not right.any() or not left.any():
-        return xy - half, xy + half
-    ends = np.stack([wp, wq], axis=1)
-    near = np.where(sp < sq, 0, 1)  # which end of each wall is nearer the object along the face
-    r = np.flatnonzero(right)[np.argmin(lo[right])]
-    l_ = np.flatnonzero(left)[np.argmax(hi[left])]
-    a, b = ends[l_, 1 - near[l_]], ends[r, near[r]]
-    mullions = in_line & ~ok & (lo > hi[l_]) & (hi < lo[r])  # short lines in line between the walls
-    if np.hypot(*(b - a)) > (params.window if mullions.any() else params.glass_wall):
-        return xy - half, xy + half
-    return a, b
+    normal = np.array([side[1], -side[0]])
+    dp, dq = (wp - xy) @ normal, (wq - xy) @ normal  # off the face's line
+    crossing = dp * dq < 0
+    meets = ~in_line & (crossing | (np.minimum(abs(dp), abs(dq)) <= params.in_line))  # crosses or ends on it
+    at = np.where(crossing, sp + (sq - sp) * dp / np.where(crossing, dp - dq, 1), np.where(abs(dp) < abs(dq), sp, sq))
+    lo = np.where(meets, at, np.minimum(sp, sq))  # each line's extent along the face, the object at 0
+    hi = np.where(meets, at, np.maximum(sp, sq))
+    for bounds, widest in ((ok, params.glass_wall), (in_line | meets, params.window)):
+        left, right = bounds & (hi < 0), bounds & (lo > 0)
+        if not left.any() or not right.any():
+            continue
+        l_, r = np.flatnonzero(left)[np.argmax(hi[left])], np.flatnonzero(right)[np.argmin(lo[right])]
+        between = (lo > hi[l_]) & (hi < lo[r])
+        jambs = meets & (lo > hi[l_] + params.in_line) & (hi < lo[r] - params.in_line)  # not at a wall's end
+        if not (ok[l_] or ok[r]) or jambs.any():
+            continue
+        a = xy + at[l_] * side if meets[l_] else (wq if sp[l_] < sq[l_] else wp)[l_]  # the nearer ends
+        b = xy + at[r] * side if meets[r] else (wp if sp[r] < sq[r] else wq)[r]
+        if np.hypot(*(b - a)) <= (params.window if (in_line & between).any() else widest):
+            return a, b
+    return xy - half, xy + half

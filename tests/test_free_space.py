@@ -228,6 +228,29 @@ def test_a_glass_wall_wider_than_the_generated_worlds_panes_ends_the_free_space(
     assert _grid_free(run.map, corridor) == 1299  # as before: 1,299 of the 1,950 places
 
 
+def test_a_pane_between_a_wall_and_a_mullion_ends_the_free_space_and_a_jamb_keeps_the_door_open():
+    """Two 2 m panes in a corridor's wall, a 10 cm mullion between them, the second ending at a door's 20 cm jamb,
+    each heard square. The first pane's face was 0.6 m (one wall in line only): now the pane from the wall's end to
+    the mullion (9,576 of 26,375 free cells behind walls -> 5,549 of 22,321). The second's, from the mullion to the
+    wall past the door (3.1 m), shut the door: 106 of the 4,179 places seen free (4,027 kept); the jamb ends it."""
+    from evmap.maps.app.compare_hazards import free_behind_walls, free_seen_kept, stripe_seen
+    from evmap.maps.app.run import run_scenario
+    from evmap.sources.sim.scenario import parse_scenario
+
+    scene = """{version: 1, name: panes, seed: 8, world: {walls: [
+      {id: wall, points: [[0, 3], [3, 3]]}, {id: mullion-1, points: [[3, 3], [3.1, 3]]},
+      {id: pane-1, points: [[3.1, 3], [5.1, 3]], material: glass}, {id: mullion-2, points: [[5.1, 3], [5.2, 3]]},
+      {id: pane-2, points: [[5.2, 3], [7.2, 3]], material: glass}, {id: jamb, points: [[7.2, 3], [7.2, 3.2], [7.35, 3.2]]},
+      {id: wall-2, points: [[8.3, 3.2], [8.3, 3], [14, 3]]}, {id: room, points: [[7.35, 3.2], [7.35, 7], [0, 7], [0, 3]]},
+      {id: room-2, points: [[8.3, 3.2], [8.3, 7], [14, 7], [14, 3]]}, {id: south, points: [[0, 0], [14, 0]]},
+      {id: west, points: [[0, 0], [0, 3]]}, {id: east, points: [[14, 0], [14, 3]]}]},
+      robot: {poses: [[1.5, 1.5, 0], [4.1, 1.8, 1.57], [6.2, 1.6, 0], [7.8, 1.5, 1.57], [10.3, 2.2, -1.57]]}}"""
+    run = run_scenario(parse_scenario(scene, "panes.yaml"), load_config("default"))
+    behind, _, free = free_behind_walls(run.map, run.world)
+    kept, seen = free_seen_kept(run.map, stripe_seen(run.world, run.config))
+    assert behind < 0.3 * free and kept >= 0.95 * seen
+
+
 def test_a_chair_leg_and_a_door_jamb_in_line_make_no_window():
     """Generated world 3 of seed 76: an object heard by a chair (4.96, 1.93) lay in line with a chair leg's short
     line and a door jamb's 15 cm stub, 2.2 m apart; taken for a window's pane, it cut 13 of the 101 places the
