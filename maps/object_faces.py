@@ -12,10 +12,11 @@ which the sonar hears only the part square to the pose, and the stripe nothing. 
 shorter than ``wall_length`` (a chair leg's, a door jamb's stub, a mullion) make no wall:
 a door is a gap in a wall too, and something heard in it is no pane. With such a line in
 line between the two walls (panes between mullions) the chord is at most ``window``
-long, and no line between them crosses the face's line or ends on it (a door's jamb:
-the pane beside a door ends there). Else a wall on one side and the nearest line in line
-or meeting the face's line on the other (a mullion, a jamb), at most ``window`` apart,
-bound it: the pane at a facade's end, between its wall and the first mullion.
+long, and no short line between them crosses the face's line or ends on it away from the
+walls' ends (a door's jamb, the wall turning: the pane beside a door ends there; a room's
+wall behind the glass is longer). Else the nearest lines in line on either side, a wall and
+a mullion, with no line meeting the face's line nearer, bound it up to ``window``: the pane
+at a facade's end, between its wall and the first mullion.
 """
 
 from __future__ import annotations
@@ -71,10 +72,9 @@ def _window(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The ends of the face of an object at ``xy`` square to a pose (``side``: a unit vector along it): the
     nearest ends of the walls (``wall_length`` long at least) in line with it on either side, when they are at
-    most ``glass_wall`` apart (``window`` with shorter lines in line between them: mullions) and no line crosses
-    the face's line between them (a jamb); else those of the nearest lines in line with it or crossing its line on
-    either side, one of them a wall in line, when at most ``window`` apart (a pane between a wall and a mullion);
-    else ``object_width`` across."""
+    most ``glass_wall`` apart (``window`` with shorter lines in line between them: mullions) and no jamb lies
+    between them; else those of the nearest lines in line with it on either side, one of them a wall, when no
+    line meets the face's line nearer and they are at most ``window`` apart; else ``object_width`` across."""
     half = side * params.object_width / 2
     wp, wq = walls
     if not len(wp):
@@ -97,11 +97,11 @@ def _window(
             continue
         l_, r = np.flatnonzero(left)[np.argmax(hi[left])], np.flatnonzero(right)[np.argmin(lo[right])]
         between = (lo > hi[l_]) & (hi < lo[r])
-        jambs = meets & (lo > hi[l_] + params.in_line) & (hi < lo[r] - params.in_line)  # not at a wall's end
-        if not (ok[l_] or ok[r]) or jambs.any():
+        # a short line meeting the face's line away from the walls' ends: a jamb, the wall turning at a door
+        jambs = meets & (length < params.wall_length) & (lo > hi[l_] + params.in_line) & (hi < lo[r] - params.in_line)
+        if not (ok[l_] or ok[r]) or meets[l_] or meets[r] or jambs.any():
             continue
-        a = xy + at[l_] * side if meets[l_] else (wq if sp[l_] < sq[l_] else wp)[l_]  # the nearer ends
-        b = xy + at[r] * side if meets[r] else (wp if sp[r] < sq[r] else wq)[r]
+        a, b = (wq if sp[l_] < sq[l_] else wp)[l_], (wp if sp[r] < sq[r] else wq)[r]  # the nearer ends
         if np.hypot(*(b - a)) <= (params.window if (in_line & between).any() else widest):
             return a, b
     return xy - half, xy + half
