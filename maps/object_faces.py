@@ -87,8 +87,10 @@ def _window(
     normal = np.array([side[1], -side[0]])
     dp, dq = (wp - xy) @ normal, (wq - xy) @ normal  # off the face's line
     crossing = dp * dq < 0
-    meets = ~in_line & (crossing | (np.minimum(abs(dp), abs(dq)) <= params.in_line))  # crosses or ends on it
-    at = np.where(crossing, sp + (sq - sp) * dp / np.where(crossing, dp - dq, 1), np.where(abs(dp) < abs(dq), sp, sq))
+    meets = ~in_line & (crossing | (np.minimum(np.abs(dp), np.abs(dq)) <= params.in_line))  # crosses or ends on it
+    at = np.where(
+        crossing, sp + (sq - sp) * dp / np.where(crossing, dp - dq, 1), np.where(np.abs(dp) < np.abs(dq), sp, sq)
+    )
     lo = np.where(meets, at, np.minimum(sp, sq))  # each line's extent along the face, the object at 0
     hi = np.where(meets, at, np.maximum(sp, sq))
     for bounds, widest in ((ok, params.glass_wall), (in_line | meets, params.window)):
