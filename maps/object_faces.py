@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from evmap.sources.geometry import line_distances
+from evmap.sources.geometry import crossings, line_distances
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
@@ -85,12 +85,11 @@ def _window(
     ok = in_line & (length >= params.wall_length)
     sp, sq = (wp - xy) @ side, (wq - xy) @ side
     normal = np.array([side[1], -side[0]])
-    dp, dq = (wp - xy) @ normal, (wq - xy) @ normal  # off the face's line
-    crossing = dp * dq < 0
-    meets = ~in_line & (crossing | (np.minimum(np.abs(dp), np.abs(dq)) <= params.in_line))  # crosses or ends on it
-    at = np.where(
-        crossing, sp + (sq - sp) * dp / np.where(crossing, dp - dq, 1), np.where(np.abs(dp) < np.abs(dq), sp, sq)
-    )
+    dp, dq = np.abs((wp - xy) @ normal), np.abs((wq - xy) @ normal)  # off the face's line
+    t, s = crossings(xy, side, wp, d)
+    crossing = (s > 0) & (s < 1)
+    meets = ~in_line & (crossing | (np.minimum(dp, dq) <= params.in_line))  # crosses or ends on it
+    at = np.where(crossing, t, np.where(dp < dq, sp, sq))  # where along the face
     lo = np.where(meets, at, np.minimum(sp, sq))  # each line's extent along the face, the object at 0
     hi = np.where(meets, at, np.maximum(sp, sq))
     for bounds, widest in ((ok, params.glass_wall), (in_line | meets, params.window)):
