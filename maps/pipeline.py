@@ -150,7 +150,7 @@ def _fold(bm: BeliefMap, obs: Observation, config: Config) -> PoseOutcome:
         refresh_points(bm, touched_lines, config)
         none = np.zeros(0, dtype=np.intp)
         return PoseOutcome(obs.pose_index, new, primitive, space, primitive, None, primitive, (none, none))
-    check = check_sonar(bm, obs.sonar, config)
+    check = check_sonar(bm, obs.sonar, primitive, config)
     categories = reinforce(bm, check, obs.pose_index, config)
     unidentified = add_unidentified(bm, check, pose, obs.pose_index, config)
     reinforced_lines = {i for i in categories if i in bm and bm.is_line(i)}

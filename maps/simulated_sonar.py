@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from evmap.maps.matching import match_rcds
 from evmap.sources.config_model import Config
 from evmap.sources.geometry import cast_rays
-from evmap.sources.rcd import Rcds, extract_rcds
+from evmap.sources.rcd import Rcds, extract_rcds, wide_rcds
 from evmap.sources.readings import SonarScan
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.surfaces import Surfaces
@@ -38,7 +38,8 @@ class SonarCheck:
     Attributes
     ----------
     surfaces : the map near the pose, as the sonar model sees it.
-    actual : the actual RCDs at least ``rcd.min_width_deg`` wide.
+    runs : every run of constant depth of the actual scan, whatever its width (its primitive RCDs).
+    actual : the actual RCDs at least ``rcd.min_width_deg`` wide, not at max range (of ``runs``).
     predicted_scan : the scan simulated from the map.
     predicted : its RCDs at least ``rcd.min_width_deg`` wide.
     matched : (actual index, predicted index) pairs.
@@ -46,6 +47,7 @@ class SonarCheck:
     """
 
     surfaces: Surfaces
+    runs: Rcds
     actual: Rcds
     predicted_scan: SonarScan
     predicted: Rcds
@@ -53,17 +55,18 @@ class SonarCheck:
     masked: NDArray[np.bool_]
 
 
-def check_sonar(bm: BeliefMap, sonar: SonarScan, config: Config) -> SonarCheck:
-    """Simulate the scan the map predicts at the actual scan's pose and match the two scans' RCDs."""
+def check_sonar(bm: BeliefMap, sonar: SonarScan, runs: Rcds, config: Config) -> SonarCheck:
+    """Simulate the scan the map predicts at the actual scan's pose and match the two scans' RCDs (``runs``: the
+    actual scan's primitive ones)."""
     pose, reach = sonar.pose, sonar.params.max_range
     surfaces = map_surfaces(bm, (pose[0] - reach, pose[1] - reach, pose[0] + reach, pose[1] + reach))
     predicted_scan = simulate_scan(surfaces, pose, sonar.params)
-    actual = extract_rcds(sonar, config.rcd)
+    actual = wide_rcds(runs, reach, config.rcd)
     predicted = extract_rcds(predicted_scan, config.rcd)
     widths = (actual.width, predicted.width)
     matched = match_rcds(actual.direction, actual.range, predicted.direction, predicted.range, config.matching, widths)
     hidden = masked(sonar, predicted_scan, predicted, config)
-    return SonarCheck(surfaces, actual, predicted_scan, predicted, matched, hidden)
+    return SonarCheck(surfaces, runs, actual, predicted_scan, predicted, matched, hidden)
 
 
 def map_surfaces(bm: BeliefMap, bounds: tuple[float, float, float, float] | None = None) -> Surfaces:

@@ -29,6 +29,12 @@ the sonar reports the first echo, so a Type II RCD is cut on its shorter
 neighbour's side by a nearer echo (a corner heard beside a nearer wall), and
 its target lies toward that side.
 
+With ``unidentified.pane_in_line``, a run of the actual scan the paper's rule takes
+no object from (Type IV, or narrower than ``rcd.min_width_deg``: a nearer target
+beside the beam) is a pane's echo where a pane in line with a believed line would
+give it, and makes an object at the foot of the pose's perpendicular on that line
+(:mod:`evmap.maps.pane_echoes`).
+
 With ``unidentified.pane_width``, a believed object that a pose's stripe saw
 through (no stripe point near it) is also a pane that width across, square to
 the bearing that pose heard it at (a glass pane heard at normal incidence: the
@@ -61,6 +67,7 @@ from numpy.typing import NDArray
 
 from evidential import MassFunction
 from evmap.maps.free_space import FreeSpaceParams
+from evmap.maps.pane_echoes import pane_echoes
 from evmap.maps.sensed import pose_sensed
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.maps.stripe_contour import stripe_bound
@@ -82,7 +89,8 @@ BELIEVED = 0.5
 def add_unidentified(
     bm: BeliefMap, check: SonarCheck, pose: NDArray[np.float64], pose_index: int, config: Config
 ) -> list[str]:
-    """Unmatched actual RCDs of Type I-III in sight become unidentified objects (or reinforce one near).
+    """Unmatched actual RCDs of Type I-III in sight, and the runs that are panes' echoes
+    (:func:`~evmap.maps.pane_echoes.pane_echoes`), become unidentified objects (or reinforce one near).
 
     Returns the ids of the objects added or reinforced, strongest evidence (Type I) first.
     """
@@ -91,18 +99,23 @@ def add_unidentified(
     unmatched = unmatched[in_sight(check.surfaces, pose, actual, unmatched, config)]
     g = bm.graph
     keep = unmatched[actual.type[unmatched] != TYPE_IV]
-    keep = keep[np.argsort(actual.type[keep], kind="stable")]  # the strongest evidence first
     params = config.unidentified
     sonar = check.predicted_scan.params  # the actual scan's: the prediction is simulated with them
     aim = reflector_bearings(actual, keep, sonar) if params.masked_aim else actual.direction[keep]
     targets = pose[:2] + actual.range[keep, None] * _unit(aim)
+    believed = np.array([bm.mass(line).belief("real") >= BELIEVED for line in check.surfaces.segment_ids], dtype=bool)
     if (params.explained_distance > 0 or params.behind_contour) and len(keep):  # the map's own echoes are no objects
-        keep, targets = _unexplained(bm, check, pose, pose_index, keep, aim, config)
+        keep, targets = _unexplained(bm, check, pose, pose_index, keep, aim, believed, config)
+    panes, feet = pane_echoes(check, believed, pose, config)
+    types = np.concatenate([actual.type[keep], check.runs.type[panes]])
+    targets = np.concatenate([targets.reshape(-1, 2), feet])
+    order = np.argsort(types, kind="stable")  # the strongest evidence first
+    types, targets = types[order], targets[order]
     stage = config.stage_sources("unidentified")
-    rows = [source.masses({"rcd_type": np.array([TYPE_NAMES[t] for t in actual.type[keep]])}) for source in stage]
+    rows = [source.masses({"rcd_type": np.array([TYPE_NAMES[t] for t in types])}) for source in stage]
     radius = config.unidentified.merge_radius
     done: list[str] = []
-    for j, (k, xy) in enumerate(zip(keep, targets, strict=True)):
+    for j, (kind, xy) in enumerate(zip(types, targets, strict=True)):
         around = [
             n for n in bm.near((*(xy - radius), *(xy + radius)), "points") if g.nodes[n]["kind"] == "unidentified"
         ]
@@ -115,7 +128,7 @@ def add_unidentified(
                     "pose": pose_index,
                     "sensor": "sonar",
                     "source": source.name,
-                    "rcd_type": TYPE_NAMES[int(actual.type[k])],
+                    "rcd_type": TYPE_NAMES[int(kind)],
                 },
                 MassFunction.from_dense(bm.frame, batch[j], open_world=True),
             )
@@ -145,6 +158,7 @@ def _unexplained(
     pose_index: int,
     keep: NDArray[np.intp],
     aim: NDArray[np.float64],
+    believed: NDArray[np.bool_],
     config: Config,
 ) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
     """The RCDs of ``keep`` whose arc the map does not explain near their aim (module doc), each with its object's
@@ -159,7 +173,6 @@ def _unexplained(
     angles = actual.direction[keep, None] + offsets  # (R, ARC_SAMPLES + 1): the arc's samples and the aim
     arc = pose[:2] + actual.range[keep, None, None] * _unit(angles)
     free = np.ones(angles.shape, dtype=bool)
-    believed = np.array([bm.mass(line).belief("real") >= BELIEVED for line in s.segment_ids], dtype=bool)
     if params.explained_distance > 0 and believed.any():
         p, q = s.p[believed], s.q[believed]
         free &= point_segment_distances(arc[..., None, :], p, q).min(axis=-1) > params.explained_distance

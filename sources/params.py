@@ -197,6 +197,15 @@ class UnidentifiedParams(_Params):
         "first one): its object is placed toward that side, one detection half-width of a wall or corner at its "
         "range from its free edge; false, the paper's method: at the RCD's direction",
     )
+    pane_in_line: float = Field(
+        0.0,
+        ge=0,
+        le=1,
+        description="a run of the actual scan the paper's rule makes no object of (Type IV, or narrower than "
+        "rcd.min_width_deg) is a pane's echo, an object at the foot of the pose's perpendicular on a believed "
+        "line, when its range is within this (m) of that perpendicular's length, the foot within its arc, in a "
+        "gap of the believed lines and not predicted by the map's scan; 0, the paper's method: no such objects",
+    )
     behind_contour: bool = Field(
         False,
         description="an unmatched RCD whose target lies beyond the pose's own stripe (its points, and the chords "

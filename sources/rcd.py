@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 from evmap.sources.params import RcdParams
 from evmap.sources.readings import SonarScan
 
-__all__ = ["TYPE_I", "TYPE_II", "TYPE_III", "TYPE_IV", "TYPE_NAMES", "Rcds", "extract_rcds"]
+__all__ = ["TYPE_I", "TYPE_II", "TYPE_III", "TYPE_IV", "TYPE_NAMES", "Rcds", "extract_rcds", "wide_rcds"]
 
 TYPE_I, TYPE_II, TYPE_III, TYPE_IV = 1, 2, 3, 4
 """The values of :attr:`Rcds.type`."""
@@ -190,7 +190,18 @@ def extract_rcds(scan: SonarScan, params: RcdParams, *, primitive: bool = False)
     )
     dtypes = [np.intp, np.intp, np.intp, float, float, float, float, int, float, float, str, int]
     rcds = Rcds(*(np.asarray(column, dtype=dt)[order] for column, dt in zip(columns, dtypes)))
-    if primitive:
-        return rcds
-    echo = rcds.range < scan.params.max_range - tol
-    return rcds.select(echo & (rcds.width >= np.radians(params.min_width_deg) - 1e-9))
+    return rcds if primitive else wide_rcds(rcds, scan.params.max_range, params)
+
+
+def wide_rcds(runs: Rcds, max_range: float, params: RcdParams) -> Rcds:
+    """The RCDs of a scan's primitive ones ``runs`` that feed matching and counts: at least ``min_width_deg`` wide
+    and not at the scan's ``max_range`` (within the range tolerance); :func:`extract_rcds` without ``primitive``.
+
+    >>> from evmap.sources.params import SonarParams
+    >>> scan = SonarScan.from_readings(np.radians(np.arange(20.0)), np.r_[np.full(15, 1.0), np.full(5, 2.0)],
+    ...                                SonarParams())
+    >>> wide_rcds(extract_rcds(scan, RcdParams(), primitive=True), 10.0, RcdParams()).count.tolist()
+    [15]
+    """
+    echo = runs.range < max_range - params.range_tolerance
+    return runs.select(echo & (runs.width >= np.radians(params.min_width_deg) - 1e-9))

@@ -1,0 +1,95 @@
+"""Panes in line with a believed wall, heard at normal incidence, where the paper's rule makes no object.
+
+The paper makes an unidentified object of an unmatched actual RCD of Type I-III at least
+``rcd.min_width_deg`` wide (:mod:`evmap.maps.unidentified`). A glass pane in a wall, heard square, often
+gives neither: a nearer target beside the beam (a jamb, a chair, a pillar) makes its run of readings Type IV
+(a range jump to a neighbour) or cuts it narrower than that (the sonar reports the first echo). With
+``unidentified.pane_in_line``, such a run is a pane's echo when a pane in line with a believed line would
+give it: its range is within that of the pose's perpendicular distance to the line (extended), the foot of
+the perpendicular lies within the run's arc and in a gap of the believed lines (farther than
+``unidentified.explained_distance`` from each), the scan the map predicts does not hear that range there
+(the nearest predicted reading to the foot's bearing is off by more than ``matching.range_gate``: a wall end
+beside the gap would be heard at almost the same range, and the map predicts it), and its arc is in sight
+(:func:`~evmap.maps.simulated_sonar.in_sight`). A multiple reflection comes back at the range of a wall's
+line, square to it, in a gap of it, only by chance: its path is longer than the perpendicular.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from evmap.maps.simulated_sonar import SonarCheck, in_sight
+from evmap.sources.config_model import Config
+from evmap.sources.geometry import perpendicular_feet, point_segment_distances
+from evmap.sources.rcd import TYPE_IV
+
+__all__ = ["pane_echoes"]
+
+
+def pane_echoes(
+    check: SonarCheck, believed: NDArray[np.bool_], pose: NDArray[np.float64], config: Config
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """The runs of ``check.runs`` that are panes' echoes (module doc), and each one's place: the foot of the
+    perpendicular on the line whose distance is nearest the run's range.
+
+    ``believed``: which of ``check.surfaces``' segments are believed lines.
+
+    >>> from evmap.maps.simulated_sonar import check_sonar
+    >>> from evmap.maps.belief_map import new_map
+    >>> from evmap.sources.config import load_config
+    >>> from evmap.sources.params import SonarParams
+    >>> from evmap.sources.rcd import extract_rcds
+    >>> from evmap.sources.readings import SonarScan
+    >>> config = load_config("default")
+    >>> bm = new_map(config)  # a wall y = 2 from x = -3 to -0.6 and from 0.6 to 3: a gap, a pane in it
+    >>> for i, ends in enumerate([((-3, 2), (-0.6, 2)), ((0.6, 2), (3, 2))]):
+    ...     for end, xy in zip("ab", ends):
+    ...         bm.add_point(f"E{i}{end}", xy, "endpoint", bm.vacuous())
+    ...     bm.add_line(f"L{i}", f"E{i}a", f"E{i}b", bm.vacuous())
+    >>> angles = np.radians(np.arange(0.0, 360.0))
+    >>> ranges = np.full(360, 10.0)
+    >>> ranges[87:94] = 2.0  # the pane heard square over 7 deg: narrower than an RCD
+    >>> ranges[[86, 94]] = 1.5  # something nearer at both edges of the beam
+    >>> scan = SonarScan.from_readings(angles, ranges, SonarParams(), pose=(0.0, 0.0, 0.0))
+    >>> check = check_sonar(bm, scan, extract_rcds(scan, config.rcd, primitive=True), config)
+    >>> runs, places = pane_echoes(check, np.ones(2, dtype=bool), np.zeros(3), config)
+    >>> check.runs.count[runs].tolist(), places.round(3).tolist()
+    ([7], [[0.0, 2.0]])
+    """
+    runs, s, params = check.runs, check.surfaces, config.unidentified
+    none = np.zeros(0, dtype=np.intp), np.zeros((0, 2))
+    if params.pane_in_line <= 0 or not believed.any():
+        return none
+    wide = np.isin(runs.start, check.actual.start)
+    matched = np.isin(runs.start, check.actual.start[check.matched[0]])
+    echo = runs.range < check.predicted_scan.params.max_range - config.rcd.range_tolerance
+    which = np.flatnonzero(echo & ~matched & (~wide | (runs.type == TYPE_IV)))
+    if not len(which):
+        return none
+    p, q = s.p[believed], s.q[believed]
+    _, foot = perpendicular_feet(pose[:2], p, q)  # (L, 2): on the lines, extended
+    away = foot - pose[:2]
+    distance = np.hypot(away[:, 0], away[:, 1])
+    gap = point_segment_distances(foot[:, None], p, q).min(axis=1) > params.explained_distance
+    bearing = np.arctan2(away[:, 1], away[:, 0])
+    off = np.abs(np.angle(np.exp(1j * (bearing - runs.direction[which, None]))))  # (R, L)
+    miss = np.abs(distance - runs.range[which, None])
+    fits = (miss <= params.pane_in_line) & (off <= runs.width[which, None] / 2) & gap & (distance > 0)
+    line = np.argmin(np.where(fits, miss, np.inf), axis=1)
+    ok = fits.any(axis=1)
+    which, line = which[ok], line[ok]
+    heard = _predicted_ranges(check, bearing[line])
+    ok = np.abs(heard - runs.range[which]) > config.matching.range_gate
+    which, line = which[ok], line[ok]
+    ok = in_sight(s, pose, runs, which, config)
+    return which[ok], foot[line[ok]]
+
+
+def _predicted_ranges(check: SonarCheck, bearings: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The range of the map's predicted reading nearest each bearing (rad)."""
+    angles = check.predicted_scan.angles
+    if not len(angles):
+        return np.full(len(bearings), np.inf)
+    nearest = np.argmin(np.abs(np.angle(np.exp(1j * (bearings[:, None] - angles[None])))), axis=1)
+    return check.predicted_scan.ranges[nearest]

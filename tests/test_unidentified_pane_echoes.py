@@ -1,0 +1,87 @@
+"""A pane in line with a believed wall, heard square in a run the paper's rule takes no object from."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from evmap.maps import new_map
+from evmap.maps.app.compare_configs import resolve_config
+from evmap.maps.app.compare_metrics import fuse_configs, heard_glass
+from evmap.maps.pane_echoes import pane_echoes
+from evmap.maps.simulated_sonar import check_sonar
+from evmap.sources.config import load_config
+from evmap.sources.params import SonarParams
+from evmap.sources.rcd import TYPE_IV, extract_rcds
+from evmap.sources.readings import SonarScan
+from evmap.sources.sim.scenario import parse_scenario
+
+ROOM = """
+version: 1
+name: pane-beside-legs
+world:
+  walls:
+    - {id: wall, points: [[3.4, 6], [0, 6], [0, 0], [8, 0], [8, 6], [4.6, 6]]}
+    - {id: window, points: [[4.6, 6], [3.4, 6]], material: glass}
+  cylinders: [LEGS]
+robot:
+  poses: [[4, 2, 0]]
+"""
+"""A room whose north wall holds a window 4 m square in front of the robot (LEGS: the cylinders beside the beam)."""
+
+PILLAR = "{id: pillar, center: [4.6, 3.5], radius: 0.1}"
+"""Beside the beam: the pane's run of readings jumps to it, over 1 m nearer (Type IV)."""
+
+TWO_LEGS = "{id: leg-1, center: [3.55, 4.0], radius: 0.05}, {id: leg-2, center: [4.45, 4.0], radius: 0.05}"
+"""Either side of the normal: the pane is heard over 3 readings only, narrower than an RCD."""
+
+
+@pytest.mark.parametrize("legs", [PILLAR, TWO_LEGS])
+def test_a_pane_heard_square_beside_nearer_targets_is_an_object_on_the_pane_under_the_default_config(legs) -> None:
+    scenario = parse_scenario(ROOM.replace("LEGS", legs), "room.yaml")
+    for name, objects in (("paper", 0), ("default", 1)):
+        run = fuse_configs(scenario, {name: resolve_config(name)}, ["dempster"])[name, "dempster"]
+        sonar = run.observations[0].sonar
+        runs = extract_rcds(sonar, run.config.rcd, primitive=True)
+        pane = runs.target == "window"
+        assert pane.sum() == 1 and runs.type[pane][0] == TYPE_IV  # heard square, in a run the paper takes none from
+        assert run.world.surfaces().segment_ids[heard_glass(run.world, [sonar])].tolist() == ["window"]
+        on_pane = [u for u in run.map.unidentified() if abs(u.xy[1] - 6.0) < 0.05 and 3.4 < u.xy[0] < 4.6]
+        assert len(on_pane) == objects
+        assert all(abs(u.xy[0] - 4.0) < 0.05 for u in on_pane)  # at the foot of the perpendicular
+
+
+def _check(ranges: dict[int, float], lines, config):
+    """The sonar check of a scan from the origin (readings every degree, 10 m but where ``ranges`` says) against a
+    map of the believed ``lines``."""
+    bm = new_map(config)
+    for i, ends in enumerate(lines):
+        for end, xy in zip("ab", ends, strict=True):
+            bm.add_point(f"E{i}{end}", xy, "endpoint", bm.vacuous())
+        bm.add_line(f"L{i}", f"E{i}a", f"E{i}b", bm.vacuous())
+    r = np.full(360, 10.0)
+    for k, v in ranges.items():
+        r[k] = v
+    scan = SonarScan.from_readings(np.radians(np.arange(360.0)), r, SonarParams(), pose=(0.0, 0.0, 0.0))
+    return check_sonar(bm, scan, extract_rcds(scan, config.rcd, primitive=True), config)
+
+
+GAP = [((-3, 2), (-0.6, 2)), ((0.6, 2), (3, 2))]
+"""A wall y = 2 with a gap from x = -0.6 to 0.6."""
+
+
+def _pane_runs(ranges: dict[int, float], lines=GAP, config=None) -> list[int]:
+    """The first readings of the runs :func:`pane_echoes` takes for panes."""
+    config = config or load_config("default")
+    check = _check(ranges, lines, config)
+    runs, _ = pane_echoes(check, np.ones(len(check.surfaces.segment_ids), dtype=bool), np.zeros(3), config)
+    return check.runs.start[runs].tolist()
+
+
+def test_a_run_is_a_pane_only_at_the_wall_line_s_distance_square_to_it_in_a_gap_and_not_under_the_paper() -> None:
+    square = {k: 2.0 for k in range(87, 94)} | {86: 1.5, 94: 1.5}  # 7 readings around 90 deg, nearer ones beside
+    assert _pane_runs(square) == [87]
+    assert _pane_runs({k: 2.0 + 0.15 for k in range(87, 94)} | {86: 1.5, 94: 1.5}) == []  # not the wall's distance
+    assert _pane_runs({k: 2.0 for k in range(95, 102)} | {94: 1.5, 102: 1.5}) == []  # the foot is not in its arc
+    assert _pane_runs(square, lines=[((-3, 2), (3, 2))]) == []  # no gap: the wall itself, and the map predicts it
+    assert _pane_runs(square, config=load_config("paper")) == []  # the paper's method: no such objects
