@@ -6,7 +6,9 @@ gives neither: a nearer target beside the beam (a jamb, a chair, a pillar) makes
 (a range jump to a neighbour) or cuts it narrower than that (the sonar reports the first echo). With
 ``unidentified.pane_in_line``, such a run is a pane's echo when a pane in line with a believed line would
 give it: its range is within that of the pose's perpendicular distance to the line (extended), the foot of
-the perpendicular lies within the run's arc and in a gap of the believed lines (farther than
+the perpendicular lies within the run's arc (or, for a Type IV run, beyond its edge on the side of the nearer
+neighbour, every reading of the run within a wall's detection half-width of the normal: the readings square
+to the pane heard the nearer target first) and in a gap of the believed lines (farther than
 ``unidentified.explained_distance`` from each), the scan the map predicts does not hear that range there
 (the nearest predicted reading to the foot's bearing is off by more than ``matching.range_gate``: a wall end
 beside the gap would be heard at almost the same range, and the map predicts it), and its arc is in sight
@@ -23,6 +25,7 @@ from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.sources.config_model import Config
 from evmap.sources.geometry import perpendicular_feet, point_segment_distances
 from evmap.sources.rcd import TYPE_IV
+from evmap.sources.sim.sonar import echo_halfwidth
 
 __all__ = ["pane_echoes"]
 
@@ -73,9 +76,9 @@ def pane_echoes(
     distance = np.hypot(away[:, 0], away[:, 1])
     gap = point_segment_distances(foot[:, None], p, q).min(axis=1) > params.explained_distance
     bearing = np.arctan2(away[:, 1], away[:, 0])
-    off = np.abs(np.angle(np.exp(1j * (bearing - runs.direction[which, None]))))  # (R, L)
+    off = np.angle(np.exp(1j * (bearing - runs.direction[which, None])))  # (R, L): signed, from each run's middle
     miss = np.abs(distance - runs.range[which, None])
-    fits = (miss <= params.pane_in_line) & (off <= runs.width[which, None] / 2) & gap & (distance > 0)
+    fits = (miss <= params.pane_in_line) & _normal_fits(check, which, off, config) & gap & (distance > 0)
     line = np.argmin(np.where(fits, miss, np.inf), axis=1)
     ok = fits.any(axis=1)
     which, line = which[ok], line[ok]
@@ -84,6 +87,26 @@ def pane_echoes(
     which, line = which[ok], line[ok]
     ok = in_sight(s, pose, runs, which, config)
     return which[ok], foot[line[ok]]
+
+
+def _normal_fits(
+    check: SonarCheck, which: NDArray[np.intp], off: NDArray[np.float64], config: Config
+) -> NDArray[np.bool_]:
+    """Whether a pane whose normal lies ``off`` (R, L; rad, signed) from the middle of each run of ``which`` could
+    have given it: the normal within the run's arc; or, for a Type IV run, beyond its edge on the side of a
+    neighbour nearer by more than the jump threshold (the readings square to the pane heard that nearer target
+    first), with every reading of the run within a wall's detection half-width of the normal
+    (:func:`~evmap.sources.sim.sonar.echo_halfwidth`)."""
+    runs = check.runs
+    width, r = runs.width[which], runs.range[which]
+    fits = np.abs(off) <= width[:, None] / 2
+    step = width / np.maximum(runs.count[which], 1)
+    half = echo_halfwidth(np.ones(len(which)), r, check.predicted_scan.params)
+    reach = (half - (width - step) / 2)[:, None]  # the first and last readings' beam axes within ``half``
+    jump = runs.type[which] == TYPE_IV
+    low = (jump & (runs.prev_range[which] < r - config.rcd.jump_threshold))[:, None]  # the readings before it
+    high = (jump & (runs.next_range[which] < r - config.rcd.jump_threshold))[:, None]
+    return fits | (low & (off < 0) & (-off <= reach)) | (high & (off > 0) & (off <= reach))
 
 
 def _predicted_ranges(check: SonarCheck, bearings: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -103,8 +103,11 @@ def add_unidentified(
     sonar = check.predicted_scan.params  # the actual scan's: the prediction is simulated with them
     aim = reflector_bearings(actual, keep, sonar) if params.masked_aim else actual.direction[keep]
     targets = pose[:2] + actual.range[keep, None] * _unit(aim)
-    believed = np.array([bm.mass(line).belief("real") >= BELIEVED for line in check.surfaces.segment_ids], dtype=bool)
-    if (params.explained_distance > 0 or params.behind_contour) and len(keep):  # the map's own echoes are no objects
+    explain = (params.explained_distance > 0 or params.behind_contour) and len(keep)
+    believed = np.zeros(len(check.surfaces.segment_ids), dtype=bool)
+    if explain or params.pane_in_line > 0:
+        believed[:] = [bm.mass(line).belief("real") >= BELIEVED for line in check.surfaces.segment_ids]
+    if explain:  # the map's own echoes are no objects
         keep, targets = _unexplained(bm, check, pose, pose_index, keep, aim, believed, config)
     panes, feet = pane_echoes(check, believed, pose, config)
     types = np.concatenate([actual.type[keep], check.runs.type[panes]])

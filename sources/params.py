@@ -203,8 +203,9 @@ class UnidentifiedParams(_Params):
         le=1,
         description="a run of the actual scan the paper's rule makes no object of (Type IV, or narrower than "
         "rcd.min_width_deg) is a pane's echo, an object at the foot of the pose's perpendicular on a believed "
-        "line, when its range is within this (m) of that perpendicular's length, the foot within its arc, in a "
-        "gap of the believed lines and not predicted by the map's scan; 0, the paper's method: no such objects",
+        "line, when its range is within this (m) of that perpendicular's length, the foot within its arc (or, "
+        "Type IV, on its nearer neighbour's side within a wall's detection half-width of its readings), in a gap "
+        "of the believed lines and not predicted by the map's scan; 0, the paper's method: no such objects",
     )
     behind_contour: bool = Field(
         False,

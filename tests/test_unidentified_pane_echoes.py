@@ -32,11 +32,15 @@ robot:
 PILLAR = "{id: pillar, center: [4.6, 3.5], radius: 0.1}"
 """Beside the beam: the pane's run of readings jumps to it, over 1 m nearer (Type IV)."""
 
+POST = "{id: post, center: [4.15, 3.5], radius: 0.08}"
+"""In front of the pane's normal: the readings square to the pane hear it first; the pane is heard beside it, over
+5 readings whose arc holds not the normal (Type IV: the post is over 1 m nearer)."""
+
 TWO_LEGS = "{id: leg-1, center: [3.55, 4.0], radius: 0.05}, {id: leg-2, center: [4.45, 4.0], radius: 0.05}"
 """Either side of the normal: the pane is heard over 3 readings only, narrower than an RCD."""
 
 
-@pytest.mark.parametrize("legs", [PILLAR, TWO_LEGS])
+@pytest.mark.parametrize("legs", [PILLAR, POST, TWO_LEGS])
 def test_a_pane_heard_square_beside_nearer_targets_is_an_object_on_the_pane_under_the_default_config(legs) -> None:
     scenario = parse_scenario(ROOM.replace("LEGS", legs), "room.yaml")
     for name, objects in (("paper", 0), ("default", 1)):
@@ -85,3 +89,10 @@ def test_a_run_is_a_pane_only_at_the_wall_line_s_distance_square_to_it_in_a_gap_
     assert _pane_runs({k: 2.0 for k in range(95, 102)} | {94: 1.5, 102: 1.5}) == []  # the foot is not in its arc
     assert _pane_runs(square, lines=[((-3, 2), (3, 2))]) == []  # no gap: the wall itself, and the map predicts it
     assert _pane_runs(square, config=load_config("paper")) == []  # the paper's method: no such objects
+
+
+def test_a_type_iv_run_is_a_pane_whose_normal_lies_beside_it_on_its_nearer_neighbour_s_side() -> None:
+    beside = {k: 2.0 for k in range(95, 102)}  # the foot, at 90 deg, 8 deg below the run's middle
+    assert _pane_runs(beside | {94: 0.5}) == [95]  # the readings toward the normal heard something nearer first
+    assert _pane_runs(beside | {102: 0.5}) == []  # the nearer target on the other side: not this pane's echo
+    assert _pane_runs({k: 2.0 for k in range(108, 115)} | {107: 0.5}) == []  # 21 deg off: no reading hears it
