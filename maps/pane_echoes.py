@@ -4,7 +4,7 @@ The paper makes an unidentified object of an unmatched actual RCD of Type I-III 
 ``rcd.min_width_deg`` wide (:mod:`evmap.maps.unidentified`). A glass pane in a wall, heard square, often
 gives neither: a nearer target beside the beam (a jamb, a chair, a pillar) makes its run of readings Type IV
 (a range jump to a neighbour) or cuts it narrower than that (the sonar reports the first echo). With
-``unidentified.pane_in_line``, such a run is a pane's echo when a pane in line with a believed line would
+``unidentified.pane_in_line``, such a run (of :data:`MIN_READINGS` readings or more) is a pane's echo when a pane in line with a believed line would
 give it: its range is within that of the pose's perpendicular distance to the line (extended), the foot of
 the perpendicular lies within the run's arc (or, for a Type IV run, beyond its edge on the side of the nearer
 neighbour, every reading of the run within a wall's detection half-width of the normal: the readings square
@@ -27,7 +27,12 @@ from evmap.sources.geometry import perpendicular_feet, point_segment_distances
 from evmap.sources.rcd import TYPE_IV
 from evmap.sources.sim.sonar import echo_halfwidth
 
-__all__ = ["pane_echoes"]
+__all__ = ["MIN_READINGS", "pane_echoes"]
+
+MIN_READINGS = 2
+"""The fewest readings of a run taken for a pane's echo: one reading tells no constant depth (at seed 22 of the
+generated worlds, a single reading off a wall's corner at a wall line's distance made an object 0.47 m from every
+surface)."""
 
 
 def pane_echoes(
@@ -67,7 +72,7 @@ def pane_echoes(
     wide = np.isin(runs.start, check.actual.start)
     matched = np.isin(runs.start, check.actual.start[check.matched[0]])
     echo = runs.range < check.predicted_scan.params.max_range - config.rcd.range_tolerance
-    which = np.flatnonzero(echo & ~matched & (~wide | (runs.type == TYPE_IV)))
+    which = np.flatnonzero(echo & ~matched & (~wide | (runs.type == TYPE_IV)) & (runs.count >= MIN_READINGS))
     if not len(which):
         return none
     p, q = s.p[believed], s.q[believed]

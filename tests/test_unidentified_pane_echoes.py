@@ -89,6 +89,8 @@ def test_a_run_is_a_pane_only_at_the_wall_line_s_distance_square_to_it_in_a_gap_
     assert _pane_runs({k: 2.0 for k in range(95, 102)} | {94: 1.5, 102: 1.5}) == []  # the foot is not in its arc
     assert _pane_runs(square, lines=[((-3, 2), (3, 2))]) == []  # no gap: the wall itself, and the map predicts it
     assert _pane_runs(square, config=load_config("paper")) == []  # the paper's method: no such objects
+    assert _pane_runs({90: 2.0, 89: 1.5, 91: 1.5}) == []  # one reading: no constant depth
+    assert _pane_runs({90: 2.0, 91: 2.0, 89: 1.5, 92: 1.5}) == [90]
 
 
 def test_a_type_iv_run_is_a_pane_whose_normal_lies_beside_it_on_its_nearer_neighbour_s_side() -> None:
