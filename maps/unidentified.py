@@ -118,7 +118,7 @@ def add_unidentified(
     rows = [source.masses({"rcd_type": np.array([TYPE_NAMES[t] for t in types])}) for source in stage]
     radius = config.unidentified.merge_radius
     done: list[str] = []
-    for j, (kind, xy) in enumerate(zip(types, targets, strict=True)):
+    for j, (rcd_type, xy) in enumerate(zip(types, targets, strict=True)):
         around = [
             n for n in bm.near((*(xy - radius), *(xy + radius)), "points") if g.nodes[n]["kind"] == "unidentified"
         ]
@@ -131,7 +131,7 @@ def add_unidentified(
                     "pose": pose_index,
                     "sensor": "sonar",
                     "source": source.name,
-                    "rcd_type": TYPE_NAMES[int(kind)],
+                    "rcd_type": TYPE_NAMES[int(rcd_type)],
                 },
                 MassFunction.from_dense(bm.frame, batch[j], open_world=True),
             )
