@@ -111,7 +111,7 @@ def add_unidentified(
         keep, targets = _unexplained(bm, check, pose, pose_index, keep, aim, believed, config)
     panes, feet = pane_echoes(check, believed, pose, config)
     types = np.concatenate([actual.type[keep], check.runs.type[panes]])
-    targets = np.concatenate([targets.reshape(-1, 2), feet])
+    targets = np.concatenate([targets, feet])
     order = np.argsort(types, kind="stable")  # the strongest evidence first
     types, targets = types[order], targets[order]
     stage = config.stage_sources("unidentified")
