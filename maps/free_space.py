@@ -297,7 +297,9 @@ def contour_bound(
         order = np.argsort(angle, kind="stable")
         angle, r_all = angle[order], r_all[order]
     bound = shapely.Polygon(s.origin + r_all[:, None] * np.column_stack([np.cos(angle), np.sin(angle)]))
-    return bound if bound.is_valid else shapely.make_valid(bound)
+    # every vertex off the origin, each a step of less than half a turn from the last: a simple star polygon
+    simple = (r_all > 0).all() and (np.diff(np.append(angle, angle[0] + 2 * np.pi)) < np.pi).all()
+    return bound if simple or bound.is_valid else shapely.make_valid(bound)
 
 
 def shadows(
