@@ -297,8 +297,7 @@ def contour_bound(
         order = np.argsort(angle, kind="stable")
         angle, r_all = angle[order], r_all[order]
     bound = shapely.Polygon(s.origin + r_all[:, None] * np.column_stack([np.cos(angle), np.sin(angle)]))
-    # every vertex off the origin, each a step of less than half a turn from the last: a simple star polygon
-    simple = (r_all > 0).all() and (np.diff(np.append(angle, angle[0] + 2 * np.pi)) < np.pi).all()
+    simple = (r_all > 0).all() and (np.diff(np.append(angle, angle[0] + 2 * np.pi)) < np.pi).all()  # a simple star
     return bound if simple or bound.is_valid else shapely.make_valid(bound)
 
 
