@@ -2,17 +2,23 @@
 
 The paper makes an unidentified object of an unmatched actual RCD of Type I-III at least
 ``rcd.min_width_deg`` wide (:mod:`evmap.maps.unidentified`). A glass pane in a wall, heard square, often
-gives neither: a nearer target beside the beam (a jamb, a chair, a pillar) makes its run of readings Type IV
-(a range jump to a neighbour) or cuts it narrower than that (the sonar reports the first echo). With
-``unidentified.pane_in_line``, such a run (of :data:`MIN_READINGS` readings or more) is a pane's echo when a pane in line with a believed line would
-give it: its range is within that of the pose's perpendicular distance to the line (extended), the foot of
-the perpendicular lies within the run's arc (or, for a Type IV run, beyond its edge on the side of the nearer
-neighbour, every reading of the run within a wall's detection half-width of the normal: the readings square
-to the pane heard the nearer target first) and in a gap of the believed lines (farther than
-``unidentified.explained_distance`` from each), the scan the map predicts does not hear that range there
-(the nearest predicted reading to the foot's bearing is off by more than ``matching.range_gate``: a wall end
-beside the gap would be heard at almost the same range, and the map predicts it), and its arc is in sight
-(:func:`~evmap.maps.simulated_sonar.in_sight`). A multiple reflection comes back at the range of a wall's
+gives none: a nearer target beside the beam (a jamb, a chair, a pillar) makes its run of readings Type IV
+(a range jump to a neighbour) or cuts it narrower than that (the sonar reports the first echo); or the
+matching gives its RCD to the map's prediction of the wall's end beside the pane, heard at almost the same
+range a few degrees off (the wall ends there in the map, not in the world: the glass goes on). With
+``unidentified.pane_in_line``, such a run (of :data:`MIN_READINGS` readings or more) is a pane's echo when a
+pane in line with a believed line (at least :data:`MIN_LINE` long) would give it: its range is within that of
+the pose's perpendicular distance to the line (extended), the foot of the perpendicular lies within the run's
+arc (or, for a Type IV run, beyond its edge on the side of the nearer neighbour, every reading of the run
+within a wall's detection half-width of the normal: the readings square to the pane heard the nearer target
+first) and in a gap of the believed lines (farther than ``unidentified.explained_distance`` from each), the
+scan the map predicts does not hear that range there (the nearest predicted reading to the foot's bearing is
+off by more than ``matching.range_gate``), and its arc is in sight
+(:func:`~evmap.maps.simulated_sonar.in_sight`). A run the matching gave to the map's prediction must moreover
+hold more than :data:`MIN_READINGS` readings the predicted scan does not hear at its range: a doorway's jamb
+is heard a reading further than the map predicts it (the edges of a predicted and an actual echo differ by
+that much), and made an object in the doorway at seed 22 of the generated worlds; a pane beside the wall's end
+is heard over the readings around its own normal. A multiple reflection comes back at the range of a wall's
 line, square to it, in a gap of it, only by chance: its path is longer than the perpendicular.
 """
 
@@ -27,12 +33,18 @@ from evmap.sources.geometry import perpendicular_feet, point_segment_distances
 from evmap.sources.rcd import TYPE_IV
 from evmap.sources.sim.sonar import echo_halfwidth
 
-__all__ = ["MIN_READINGS", "pane_echoes"]
+__all__ = ["MIN_LINE", "MIN_READINGS", "pane_echoes"]
 
 MIN_READINGS = 2
 """The fewest readings of a run taken for a pane's echo: one reading tells no constant depth (at seed 22 of the
 generated worlds, a single reading off a wall's corner at a wall line's distance made an object 0.47 m from every
 surface)."""
+
+MIN_LINE = 0.2
+"""The shortest believed line (m) a pane is taken in line with: the direction of a few centimetres of wall (a
+jamb's stub, a corner's chamfer) is too loosely known to carry on a metre or two (at seeds 26 27 of the generated
+worlds, 30 each, of the 16 pane echoes in line with shorter lines only 2 lay on glass, 12 beside a wall or a chair's
+leg and 2 in the open; of the 10 in line with longer ones, 9 on glass)."""
 
 
 def pane_echoes(
@@ -72,7 +84,7 @@ def pane_echoes(
     wide = np.isin(runs.start, check.actual.start)
     matched = np.isin(runs.start, check.actual.start[check.matched[0]])
     echo = runs.range < check.predicted_scan.params.max_range - config.rcd.range_tolerance
-    which = np.flatnonzero(echo & ~matched & (~wide | (runs.type == TYPE_IV)) & (runs.count >= MIN_READINGS))
+    which = np.flatnonzero(echo & (matched | ~wide | (runs.type == TYPE_IV)) & (runs.count >= MIN_READINGS))
     if not len(which):
         return none
     p, q = s.p[believed], s.q[believed]
@@ -83,12 +95,15 @@ def pane_echoes(
     bearing = np.arctan2(away[:, 1], away[:, 0])
     off = np.angle(np.exp(1j * (bearing - runs.direction[which, None])))  # (R, L): signed, from each run's middle
     miss = np.abs(distance - runs.range[which, None])
-    fits = (miss <= params.pane_in_line) & _normal_fits(check, which, off, config) & gap & (distance > 0)
+    wall = np.hypot(*(q - p).T) >= MIN_LINE
+    fits = (miss <= params.pane_in_line) & _normal_fits(check, which, off, config) & gap & wall & (distance > 0)
     line = np.argmin(np.where(fits, miss, np.inf), axis=1)
     ok = fits.any(axis=1)
     which, line = which[ok], line[ok]
     heard = _predicted_ranges(check, bearing[line])
     ok = np.abs(heard - runs.range[which]) > config.matching.range_gate
+    which, line = which[ok], line[ok]
+    ok = ~matched[which] | (_unpredicted(check, which, config) > MIN_READINGS)
     which, line = which[ok], line[ok]
     ok = in_sight(s, pose, runs, which, config)
     return which[ok], foot[line[ok]]
@@ -112,6 +127,19 @@ def _normal_fits(
     low = (jump & (runs.prev_range[which] < r - config.rcd.jump_threshold))[:, None]  # the readings before it
     high = (jump & (runs.next_range[which] < r - config.rcd.jump_threshold))[:, None]
     return fits | (low & (off < 0) & (-off <= reach)) | (high & (off > 0) & (off <= reach))
+
+
+def _unpredicted(check: SonarCheck, which: NDArray[np.intp], config: Config) -> NDArray[np.intp]:
+    """How many readings of each run of ``which`` the scan the map predicts does not hear at the run's range (the
+    nearest predicted reading to the reading's beam axis off by more than ``matching.range_gate``)."""
+    runs = check.runs
+    count = runs.count[which]
+    run = np.repeat(np.arange(len(which)), count)
+    k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)  # each reading's place in its run
+    step = runs.width[which] / np.maximum(count, 1)
+    axis = runs.direction[which][run] + (k - (count[run] - 1) / 2) * step[run]
+    off = np.abs(_predicted_ranges(check, axis) - runs.range[which][run]) > config.matching.range_gate
+    return np.bincount(run, weights=off, minlength=len(which)).astype(np.intp)
 
 
 def _predicted_ranges(check: SonarCheck, bearings: NDArray[np.float64]) -> NDArray[np.float64]:

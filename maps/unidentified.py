@@ -31,9 +31,9 @@ its target lies toward that side.
 
 With ``unidentified.pane_in_line``, a run of the actual scan the paper's rule takes
 no object from (Type IV, or narrower than ``rcd.min_width_deg``: a nearer target
-beside the beam) is a pane's echo where a pane in line with a believed line would
-give it, and makes an object at the foot of the pose's perpendicular on that line
-(:mod:`evmap.maps.pane_echoes`).
+beside the beam; or matched to the map's wall end beside a pane) is a pane's echo
+where a pane in line with a believed line would give it, and makes an object at the
+foot of the pose's perpendicular on that line (:mod:`evmap.maps.pane_echoes`).
 
 With ``unidentified.pane_width``, a believed object that a pose's stripe saw
 through (no stripe point near it) is also a pane that width across, square to

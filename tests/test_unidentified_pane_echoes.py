@@ -1,4 +1,4 @@
-"""A pane in line with a believed wall, heard square in a run the paper's rule takes no object from."""
+"""A pane in line with a believed wall, heard square in a run the paper's rule takes no object from (or gives to a wall end)."""
 
 from __future__ import annotations
 
@@ -98,3 +98,24 @@ def test_a_type_iv_run_is_a_pane_whose_normal_lies_beside_it_on_its_nearer_neigh
     assert _pane_runs(beside | {94: 0.5}) == [95]  # the readings toward the normal heard something nearer first
     assert _pane_runs(beside | {102: 0.5}) == []  # the nearer target on the other side: not this pane's echo
     assert _pane_runs({k: 2.0 for k in range(108, 115)} | {107: 0.5}) == []  # 21 deg off: no reading hears it
+
+
+JAMB = [((-3, 2), (-0.6, 2)), ((0.25, 2), (3, 2))]
+"""The wall y = 2 with a gap from x = -0.6 to 0.25: the map predicts the end at (0.25, 2) heard from 77 to 89 deg."""
+
+
+def test_a_run_the_matching_gave_to_a_wall_end_is_a_pane_where_the_map_does_not_predict_its_readings() -> None:
+    config = load_config("default")
+    pane = {k: 2.0 for k in range(80, 101)}  # the pane square at 90 deg, heard from 80 to 100 deg
+    check = _check(pane, JAMB, config)
+    assert check.matched[0].tolist() == [0] and check.predicted.target[check.matched[1]].tolist() == ["E1a"]
+    assert _pane_runs(pane, JAMB) == [80]  # 11 readings, 90 to 100 deg, the map predicts nothing at 2 m
+    jamb = {k: 2.016 for k in range(77, 91)}  # the end's own echo, a reading wider than the map predicts it
+    assert _pane_runs(jamb, JAMB) == []  # one reading the map does not predict: a doorway's jamb, no pane
+    assert _pane_runs(pane, JAMB, config=load_config("paper")) == []
+
+
+def test_a_pane_is_in_line_only_with_a_line_long_enough_to_carry_on() -> None:
+    square = {k: 2.0 for k in range(87, 94)} | {86: 1.5, 94: 1.5}
+    assert _pane_runs(square, lines=[((0.6, 2), (0.75, 2))]) == []  # a 15 cm stub: its direction not known enough
+    assert _pane_runs(square, lines=[((0.6, 2), (0.9, 2))]) == [87]
