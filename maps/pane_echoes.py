@@ -103,7 +103,8 @@ def pane_echoes(
     heard = _predicted_ranges(check, bearing[line])
     ok = np.abs(heard - runs.range[which]) > config.matching.range_gate
     which, line = which[ok], line[ok]
-    ok = ~matched[which] | (_unpredicted(check, which, config) > MIN_READINGS)
+    ok = ~matched[which]  # a run the matching gave to the map: only where the map does not predict its readings
+    ok[~ok] = _unpredicted(check, which[~ok], config) > MIN_READINGS
     which, line = which[ok], line[ok]
     ok = in_sight(s, pose, runs, which, config)
     return which[ok], foot[line[ok]]

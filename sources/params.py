@@ -202,10 +202,12 @@ class UnidentifiedParams(_Params):
         ge=0,
         le=1,
         description="a run of the actual scan the paper's rule makes no object of (Type IV, or narrower than "
-        "rcd.min_width_deg) is a pane's echo, an object at the foot of the pose's perpendicular on a believed "
-        "line, when its range is within this (m) of that perpendicular's length, the foot within its arc (or, "
-        "Type IV, on its nearer neighbour's side within a wall's detection half-width of its readings), in a gap "
-        "of the believed lines and not predicted by the map's scan; 0, the paper's method: no such objects",
+        "rcd.min_width_deg; or matched to the map's prediction, then with more than two readings the map's scan "
+        "does not hear at its range) is a pane's echo, an object at the foot of the pose's perpendicular on a "
+        "believed line at least 0.2 m long, when its range is within this (m) of that perpendicular's length, the "
+        "foot within its arc (or, Type IV, on its nearer neighbour's side within a wall's detection half-width of "
+        "its readings), in a gap of the believed lines and not predicted by the map's scan; 0, the paper's method: "
+        "no such objects",
     )
     behind_contour: bool = Field(
         False,
