@@ -3,7 +3,7 @@
 Reruns every packaged scenario (``configs/scenarios/``, ``evmap run``) and the rule
 comparison (``evmap compare --worlds 200 --seed 1``), each under the paper's config and
 the default one (``--configs``), and prints the Markdown
-tables of the README's "Other scenarios" and "Rules on 200 generated worlds"
+tables of the README's "Other scenarios" and "Rules and configs on 30 generated worlds"
 sections, the latter with its paired differences from the first config and
 rule. The comparison's numbers do not depend on the scheduler (rows are
 gathered in world order), only its timings do.
