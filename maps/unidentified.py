@@ -109,7 +109,12 @@ def add_unidentified(
         believed[:] = [bm.mass(line).belief("real") >= BELIEVED for line in check.surfaces.segment_ids]
     if explain:  # the map's own echoes are no objects
         keep, targets = _unexplained(bm, check, pose, pose_index, keep, aim, believed, config)
-    panes, feet = pane_echoes(check, believed, pose, config)
+    sensed = pose_sensed(bm, pose_index) if params.pane_in_line > 0 else None
+    stripe = None
+    if sensed is not None:
+        back = np.isfinite(sensed.range)
+        stripe = sensed.origin + sensed.range[back, None] * _unit(sensed.bearing[back])
+    panes, feet = pane_echoes(check, believed, pose, config, stripe)
     types = np.concatenate([actual.type[keep], check.runs.type[panes]])
     targets = np.concatenate([targets, feet])
     order = np.argsort(types, kind="stable")  # the strongest evidence first

@@ -206,8 +206,9 @@ class UnidentifiedParams(_Params):
         "does not hear at its range) is a pane's echo, an object at the foot of the pose's perpendicular on a "
         "believed line at least 0.2 m long, when its range is within this (m) of that perpendicular's length, the "
         "foot within its arc (or, Type IV, on its nearer neighbour's side within a wall's detection half-width of "
-        "its readings), in a gap of the believed lines and not predicted by the map's scan; 0, the paper's method: "
-        "no such objects",
+        "its readings), in a gap of the believed lines and not predicted by the map's scan; with no believed line in "
+        "line, at the foot on a line square to such a normal at its range between two frames of the pose's stripe "
+        "points on it, at most 2.5 m apart; 0, the paper's method: no such objects",
     )
     behind_contour: bool = Field(
         False,

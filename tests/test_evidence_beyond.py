@@ -240,7 +240,8 @@ def test_an_rcd_explained_at_its_aim_makes_no_object_at_its_arc_s_end() -> None:
     corner 4.07 m away, explained where the sonar model puts its target (a believed line ends there), made an
     object 11.5 deg along its arc, 0.8 m beside the corner, at the arc's unexplained end: 0.45 m from every
     true surface. An object moves along the arc no farther than ``unidentified.merge_radius`` from the aim. (The
-    third object, 2 cm from a window, is that pane's echo, heard square in a Type IV run: ``pane_in_line``.)"""
+    third object, 2 cm from a window, is that pane's echo, heard square in a Type IV run, and the fourth, on
+    another pane of the window, one heard square between the frames the stripe measured: ``pane_in_line``.)"""
     from evmap.maps.app.compare_hazards import SPURIOUS_FAR, surface_distances
     from evmap.maps.app.compare_metrics import fuse_rules
     from evmap.sources.sim.worldgen import generate_world, world_seed
@@ -249,7 +250,7 @@ def test_an_rcd_explained_at_its_aim_makes_no_object_at_its_arc_s_end() -> None:
     world = generate_world(world_seed(172, 8), WorldGenParams(column_max_share=1.0))
     run = fuse_rules(world, load_config("default"), ["dempster"])["dempster"]
     objects = np.array([u.xy for u in run.map.unidentified()])
-    assert len(objects) == 3 and (surface_distances(objects, run.world.surfaces()) <= SPURIOUS_FAR).all()
+    assert len(objects) == 4 and (surface_distances(objects, run.world.surfaces()) <= SPURIOUS_FAR).all()
 
 
 def test_an_object_heard_beside_a_nearer_wall_is_placed_toward_it() -> None:

@@ -119,3 +119,32 @@ def test_a_pane_is_in_line_only_with_a_line_long_enough_to_carry_on() -> None:
     square = {k: 2.0 for k in range(87, 94)} | {86: 1.5, 94: 1.5}
     assert _pane_runs(square, lines=[((0.6, 2), (0.75, 2))]) == []  # a 15 cm stub: its direction not known enough
     assert _pane_runs(square, lines=[((0.6, 2), (0.9, 2))]) == [87]
+
+
+def _frame(x0: float, x1: float, y: float = 2.0) -> np.ndarray:
+    """Stripe points every 2 cm along y from x0 to x1: a window's frame, or a mullion."""
+    x = np.arange(x0, x1 + 1e-9, 0.02)
+    return np.column_stack([x, np.full(len(x), y)])
+
+
+def _framed_runs(ranges: dict[int, float], stripe: np.ndarray, lines=(), config=None) -> list[int]:
+    """The first readings of the runs :func:`pane_echoes` takes for panes, the pose's stripe points given."""
+    config = config or load_config("default")
+    check = _check(ranges, list(lines), config)
+    believed = np.ones(len(check.surfaces.segment_ids), dtype=bool)
+    runs, places = pane_echoes(check, believed, np.zeros(3), config, stripe)
+    assert np.allclose(places[:, 1], 2.0, atol=0.01)  # on the pane's line, square to the normal found
+    return check.runs.start[runs].tolist()
+
+
+def test_a_pane_with_no_believed_wall_in_line_is_an_object_between_frames_the_stripe_measured() -> None:
+    square = {k: 2.0 for k in range(87, 94)} | {86: 1.5, 94: 1.5}
+    frames = np.concatenate([_frame(-0.9, -0.6), _frame(0.6, 0.9)])  # the glass between x = -0.6 and 0.6
+    assert _framed_runs(square, frames) == [87]
+    assert _framed_runs(square, _frame(0.6, 0.9)) == []  # a frame on one side only: nothing bounds the pane
+    assert _framed_runs(square, np.concatenate([_frame(-2.4, -2.1), _frame(0.6, 0.9)])) == []  # 2.7 m apart
+    assert _framed_runs(square, np.concatenate([frames, _frame(-0.1, 0.1)])) == []  # a surface on the line: no glass
+    crossing = np.column_stack([np.full(6, -0.7), np.linspace(1.93, 2.07, 6)])  # a wall across the line
+    assert _framed_runs(square, np.concatenate([crossing, _frame(0.6, 0.9)])) == []
+    assert _framed_runs(square, frames + [0.0, 0.2]) == []  # frames 20 cm beyond the run's range
+    assert _framed_runs(square, frames, config=load_config("paper")) == []
