@@ -199,8 +199,7 @@ def surface_rays(s: Sensed, p: NDArray[np.float64], q: NDArray[np.float64], marg
     hit = np.zeros(len(s.range), dtype=bool)
     ok = np.flatnonzero(np.isfinite(s.range))
     if len(ok) and len(p):
-        xy = s.origin + s.range[ok, None] * np.column_stack([np.cos(s.bearing[ok]), np.sin(s.bearing[ok])])
-        hit[ok] = near_segments(xy, p, q, margin)
+        hit[ok] = near_segments(s.points, p, q, margin)
     drop = np.isfinite(s.range) & (hit != on)
     if not drop.any():
         return s
@@ -414,7 +413,5 @@ def _surface_points(bm: BeliefMap, params: FreeSpaceParams) -> shapely.STRtree:
     """:func:`surface_points`, found anew."""
     found = [np.zeros((0, 2))]
     for s in sensed(bm):
-        on = _surfaces(s, bm, params.margin)
-        ok = np.isfinite(on.range)
-        found.append(on.origin + on.range[ok, None] * np.column_stack([np.cos(on.bearing[ok]), np.sin(on.bearing[ok])]))
+        found.append(_surfaces(s, bm, params.margin).points)
     return shapely.STRtree(shapely.points(np.concatenate(found)))

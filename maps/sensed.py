@@ -84,6 +84,14 @@ class Sensed:
     all_returns: bool = False
 
     @cached_property
+    def points(self) -> NDArray[np.float64]:
+        """(R, 2) the points of the rays that returned, in bearing order."""
+        ok = np.isfinite(self.range)
+        return self.origin + self.range[ok, None] * np.column_stack(
+            [np.cos(self.bearing[ok]), np.sin(self.bearing[ok])]
+        )
+
+    @cached_property
     def reach(self) -> float:
         """How far from the origin its readings can tell anything: its farthest stripe point, or its
         sonar's range (0 without readings)."""

@@ -32,8 +32,9 @@ its target lies toward that side.
 With ``unidentified.pane_in_line``, a run of the actual scan the paper's rule takes
 no object from (Type IV, or narrower than ``rcd.min_width_deg``: a nearer target
 beside the beam; or matched to the map's wall end beside a pane) is a pane's echo
-where a pane in line with a believed line would give it, and makes an object at the
-foot of the pose's perpendicular on that line (:mod:`evmap.maps.pane_echoes`).
+where a pane in line with a believed line, or between two frames the pose's stripe
+measured on its line, would give it, and makes an object at the foot of the pose's
+perpendicular on that line (:mod:`evmap.maps.pane_echoes`).
 
 With ``unidentified.pane_width``, a believed object that a pose's stripe saw
 through (no stripe point near it) is also a pane that width across, square to
@@ -110,11 +111,7 @@ def add_unidentified(
     if explain:  # the map's own echoes are no objects
         keep, targets = _unexplained(bm, check, pose, pose_index, keep, aim, believed, config)
     sensed = pose_sensed(bm, pose_index) if params.pane_in_line > 0 else None
-    stripe = None
-    if sensed is not None:
-        back = np.isfinite(sensed.range)
-        stripe = sensed.origin + sensed.range[back, None] * _unit(sensed.bearing[back])
-    panes, feet = pane_echoes(check, believed, pose, config, stripe)
+    panes, feet = pane_echoes(check, believed, pose, config, None if sensed is None else sensed.points)
     types = np.concatenate([actual.type[keep], check.runs.type[panes]])
     targets = np.concatenate([targets, feet])
     order = np.argsort(types, kind="stable")  # the strongest evidence first
