@@ -199,7 +199,7 @@ def surface_rays(s: Sensed, p: NDArray[np.float64], q: NDArray[np.float64], marg
     hit = np.zeros(len(s.range), dtype=bool)
     ok = np.flatnonzero(np.isfinite(s.range))
     if len(ok) and len(p):
-        hit[ok] = near_segments(s.points, p, q, margin)
+        hit[ok] = near_segments(s.points, p, q, margin, s.point_index)
     drop = np.isfinite(s.range) & (hit != on)
     if not drop.any():
         return s

@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from evmap.maps.free_space import FreeSpaceParams
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.sources.config_model import Config
-from evmap.sources.geometry import perpendicular_feet, point_segment_distances
+from evmap.sources.geometry import nearest_angles, perpendicular_feet, point_segment_distances
 from evmap.sources.rcd import TYPE_IV
 from evmap.sources.sim.sonar import echo_halfwidth
 
@@ -274,5 +274,4 @@ def _predicted_ranges(check: SonarCheck, bearings: NDArray[np.float64]) -> NDArr
     angles = check.predicted_scan.angles
     if not len(angles):
         return np.full(len(bearings), np.inf)
-    nearest = np.argmin(np.abs(np.angle(np.exp(1j * (bearings[:, None] - angles[None])))), axis=1)
-    return check.predicted_scan.ranges[nearest]
+    return check.predicted_scan.ranges[nearest_angles(angles, bearings)]

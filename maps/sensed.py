@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
 
 import numpy as np
+import shapely
 from numpy.typing import NDArray
 
 from evmap.sources.params import SonarParams
@@ -90,6 +91,11 @@ class Sensed:
         return self.origin + self.range[ok, None] * np.column_stack(
             [np.cos(self.bearing[ok]), np.sin(self.bearing[ok])]
         )
+
+    @cached_property
+    def point_index(self) -> shapely.STRtree:
+        """An STRtree of :attr:`points` (what :func:`~evmap.sources.geometry.near_segments` asks of them)."""
+        return shapely.STRtree(shapely.points(self.points))
 
     @cached_property
     def reach(self) -> float:

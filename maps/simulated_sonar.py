@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from evmap.maps.matching import match_rcds
 from evmap.sources.config_model import Config
-from evmap.sources.geometry import cast_rays
+from evmap.sources.geometry import cast_rays, nearest_angles
 from evmap.sources.rcd import Rcds, extract_rcds, wide_rcds
 from evmap.sources.readings import SonarScan
 from evmap.sources.sim.sonar import simulate_scan
@@ -103,16 +103,10 @@ def masked(actual: SonarScan, predicted_scan: SonarScan, predicted: Rcds, config
     hidden = np.zeros(len(predicted), dtype=bool)
     if not len(actual):
         return hidden
-    order = np.argsort(np.mod(actual.angles, 2 * np.pi))
-    around = np.mod(actual.angles[order], 2 * np.pi)
     for k in range(len(predicted)):
         i, j = int(predicted.start[k]), int(predicted.end[k])
         idx = np.arange(i, j + 1) if j >= i else np.r_[i : len(predicted_scan), 0 : j + 1]
-        at = np.mod(predicted_scan.angles[idx], 2 * np.pi)
-        pos = np.searchsorted(around, at) % len(around)
-        before = (pos - 1) % len(around)
-        gap = np.abs(np.angle(np.exp(1j * (around[[pos, before]] - at))))
-        nearest = order[np.where(gap[0] <= gap[1], pos, before)]
+        nearest = nearest_angles(actual.angles, predicted_scan.angles[idx])
         hidden[k] = np.median(actual.ranges[nearest]) < predicted.range[k] - config.matching.range_gate
     return hidden
 

@@ -23,6 +23,7 @@ __all__ = [
     "line_distances",
     "merge_nearest",
     "near_segments",
+    "nearest_angles",
     "nearest_first_pairs",
     "perpendicular_feet",
     "point_segment_distances",
@@ -133,13 +134,16 @@ def point_segment_distances(xy: ArrayLike, p: ArrayLike, q: ArrayLike) -> NDArra
     return np.hypot(gap[..., 0], gap[..., 1])
 
 
-def near_segments(xy: ArrayLike, p: ArrayLike, q: ArrayLike, tol: ArrayLike) -> NDArray[np.bool_]:
+def near_segments(
+    xy: ArrayLike, p: ArrayLike, q: ArrayLike, tol: ArrayLike, index: shapely.STRtree | None = None
+) -> NDArray[np.bool_]:
     """Whether each point ``xy`` (K, 2) lies within ``tol`` (a number, or one per point) of some segment ``p``-``q``.
 
     The same as ``point_segment_distances(xy[:, None], p[None], q[None]).min(axis=1) <= tol`` to the last bit,
     without the (K, N) matrix: a spatial index of the segments' boxes, grown by the reach, gives the pairs that
     may be within it (boxes only: GEOS's exact distances cost more than numpy's), whose distances are then
-    computed as that matrix's would be.
+    computed as that matrix's would be. ``index``, an STRtree of ``shapely.points(xy)``, is queried with the
+    boxes instead (what a caller asking again and again of the same points keeps).
 
     >>> near_segments([[0.5, 0.04], [0.5, 0.2], [3.0, 0.0]], [[0.0, 0.0]], [[1.0, 0.0]], [0.05, 0.05, 2.5]).tolist()
     [True, False, True]
@@ -151,10 +155,31 @@ def near_segments(xy: ArrayLike, p: ArrayLike, q: ArrayLike, tol: ArrayLike) -> 
         return out
     reach = float(tol.max()) * (1 + 1e-9) + 1e-12  # a little more: every pair within tol is found
     lo, hi = np.minimum(p, q) - reach, np.maximum(p, q) + reach
-    point, segment = shapely.STRtree(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1])).query(shapely.points(xy))
+    boxes = shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1])
+    if index is None:
+        point, segment = shapely.STRtree(boxes).query(shapely.points(xy))
+    else:
+        segment, point = index.query(boxes)
     within = point_segment_distances(xy[point], p[segment], q[segment]) <= tol[point]
     out[point[within]] = True
     return out
+
+
+def nearest_angles(angles: ArrayLike, bearings: ArrayLike) -> NDArray[np.intp]:
+    """Index of the angle of ``angles`` (rad) nearest each of ``bearings`` (rad) around the circle: of the two
+    angles either side of a bearing (in order around the circle), the next one when both are as near.
+
+    >>> nearest_angles(np.radians([0.0, 90.0, 180.0, 270.0]), np.radians([10.0, 350.0, 135.0, -100.0])).tolist()
+    [0, 0, 2, 3]
+    """
+    a = np.mod(np.asarray(angles, dtype=float).reshape(-1), 2 * np.pi)
+    b = np.mod(np.asarray(bearings, dtype=float).reshape(-1), 2 * np.pi)
+    order = np.argsort(a, kind="stable")
+    around = a[order]
+    after = np.searchsorted(around, b) % len(around)
+    before = (after - 1) % len(around)
+    gap = np.abs(np.angle(np.exp(1j * (around[[after, before]] - b))))
+    return order[np.where(gap[0] <= gap[1], after, before)]
 
 
 def segment_distances(a: ArrayLike, b: ArrayLike, p: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:

@@ -66,8 +66,7 @@ def inside_fraction(p: ArrayLike, q: ArrayLike, open_space: shapely.Geometry) ->
     coords, ring = shapely.get_coordinates(rings, return_index=True)
     same = ring[1:] == ring[:-1]
     a, b = coords[:-1][same], coords[1:][same]  # the boundary's edges
-    tree = shapely.STRtree(shapely.linestrings(np.stack([a, b], axis=1)))
-    seg, edge = tree.query(shapely.linestrings(np.stack([p, q], axis=1)))  # pairs whose boxes meet
+    seg, edge = _box_pairs(np.minimum(p, q), np.maximum(p, q), np.minimum(a, b), np.maximum(a, b))
     d = q - p
     t, s = crossings(p[seg], d[seg], a[edge], b[edge] - a[edge])  # p + t d = a + s (b - a)
     parallel = np.isnan(t)
@@ -117,6 +116,27 @@ def relation(
     f = inside_fraction(p, q, open_space)
     code = (f > params.outside_fraction).astype(np.intp) + (f >= params.inside_fraction)
     return np.asarray(RELATIONS)[code]
+
+
+CHUNK = 8
+"""Edges of the open space's boundary put in one box of :func:`_box_pairs`'s tree."""
+
+
+def _box_pairs(
+    lo: NDArray[np.float64], hi: NDArray[np.float64], edge_lo: NDArray[np.float64], edge_hi: NDArray[np.float64]
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The (segment, edge) pairs whose boxes (corners lo-hi, edge_lo-edge_hi) meet. The tree holds boxes of
+    :data:`CHUNK` edges in a row (a boundary's edges are short and many: one box each costs more to make than
+    to test), and the pairs it finds are tested edge by edge."""
+    start = np.arange(0, len(edge_lo), CHUNK)
+    chunks = shapely.box(*np.minimum.reduceat(edge_lo, start).T, *np.maximum.reduceat(edge_hi, start).T)
+    seg, chunk = shapely.STRtree(chunks).query(shapely.box(*lo.T, *hi.T))
+    count = np.minimum(CHUNK, len(edge_lo) - start[chunk])
+    seg = np.repeat(seg, count)
+    edge = np.repeat(start[chunk], count) + np.arange(len(seg)) - np.repeat(np.cumsum(count) - count, count)
+    elo, ehi, slo, shi = edge_lo[edge], edge_hi[edge], lo[seg], hi[seg]
+    meets = (elo[:, 0] <= shi[:, 0]) & (elo[:, 1] <= shi[:, 1]) & (ehi[:, 0] >= slo[:, 0]) & (ehi[:, 1] >= slo[:, 1])
+    return seg[meets], edge[meets]
 
 
 def _points(a: ArrayLike, name: str) -> NDArray[np.float64]:

@@ -192,3 +192,16 @@ def test_near_segments_is_the_dense_test_to_the_last_bit(seed: int, k: int, n: i
         xy[0] = q[0] + [0.0, tol[0] if seed % 2 else tol]
     dense = point_segment_distances(xy[:, None], p[None], q[None]).min(axis=1) <= tol if k and n else np.zeros(k, bool)
     assert np.array_equal(geometry.near_segments(xy, p, q, tol), dense)
+    index = shapely.STRtree(shapely.points(xy))  # a caller's index of the points: the same answer
+    assert np.array_equal(geometry.near_segments(xy, p, q, tol, index), dense)
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(1, 400), st.integers(0, 50))
+def test_nearest_angles_is_the_dense_search(seed: int, n: int, k: int) -> None:
+    """Around the circle, angles in any order and of any turn, as the (K, N) matrix of circular gaps finds them."""
+    rng = np.random.default_rng(seed)
+    angles = rng.uniform(-4 * np.pi, 4 * np.pi, n)
+    bearings = rng.uniform(-4 * np.pi, 4 * np.pi, k)
+    got = geometry.nearest_angles(angles, bearings)
+    gap = np.abs(np.angle(np.exp(1j * (bearings[:, None] - angles[None]))))
+    assert np.array_equal(gap[np.arange(k), got], gap.min(axis=1))

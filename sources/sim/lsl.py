@@ -91,33 +91,26 @@ def stripe_scan(
     centres = heading + np.radians(params.step_deg) * np.arange(params.snapshots)
     angles = centres[:, None] + np.linspace(-half_fov, half_fov, rays)
 
-    # opaque surfaces within range, with the bearing interval each one covers
+    # opaque surfaces within range: every snapshot's rays cast at once (cast_rays pairs rays with the surfaces
+    # whose bearings they cross)
     n = len(surfaces.segments)
     p, q = surfaces.p, surfaces.q
-    distance = point_segment_distances(origin, p, q)
-    segs = np.flatnonzero(surfaces.lsl_opaque & (distance <= params.max_range))
-    a1 = np.arctan2(*(p[segs] - origin)[:, ::-1].T)
-    span = _wrap(np.arctan2(*(q[segs] - origin)[:, ::-1].T) - a1)
-    seg_mid, seg_half = a1 + span / 2, np.where(distance[segs] > 1e-12, np.abs(span) / 2, np.pi)
-    c = surfaces.cylinder_centers - origin
-    centre_distance = np.hypot(*c.T)
+    segs = np.flatnonzero(surfaces.lsl_opaque & (point_segment_distances(origin, p, q) <= params.max_range))
+    centre_distance = np.hypot(*(surfaces.cylinder_centers - origin).T)
     cyls = np.flatnonzero(
         surfaces.cylinder_lsl_opaque & (centre_distance - surfaces.cylinder_radii <= params.max_range)
     )
-    cyl_mid = np.arctan2(c[cyls, 1], c[cyls, 0])
-    cyl_half = np.arcsin(np.clip(surfaces.cylinder_radii[cyls] / centre_distance[cyls], 0, 1))
-
-    true_ranges = np.full(angles.shape, np.nan)
-    hit = np.full(angles.shape, -1, dtype=np.intp)
-    for k, centre in enumerate(centres):
-        s = segs[np.abs(_wrap(seg_mid - centre)) <= seg_half + half_fov + 1e-9]
-        cy = cyls[np.abs(_wrap(cyl_mid - centre)) <= cyl_half + half_fov + 1e-9]
-        r, h = cast_rays(
-            origin, angles[k], p[s], q[s], surfaces.cylinder_centers[cy], surfaces.cylinder_radii[cy], params.max_range
-        )
-        found = h >= 0
-        true_ranges[k, found] = r[found]
-        hit[k, found] = np.concatenate([s, n + cy])[h[found]]
+    r, h = cast_rays(
+        origin,
+        angles,
+        p[segs],
+        q[segs],
+        surfaces.cylinder_centers[cyls],
+        surfaces.cylinder_radii[cyls],
+        params.max_range,
+    )
+    true_ranges = np.where(h >= 0, r, np.nan).reshape(angles.shape)
+    hit = np.concatenate([segs, n + cyls, [-1]])[h].reshape(angles.shape)  # h = -1: no hit
     ranges = true_ranges
     if rng is not None:
         ranges = true_ranges * (1 + params.range_noise * rng.standard_normal(angles.shape))
