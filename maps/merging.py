@@ -76,6 +76,10 @@ TURN_CAP = 1.5
 """A candidate pair's shorter line turns at most this many times ``angle_deg``: uncapped, pieces of a few
 centimetres across a corner or a pillar's facet joined the line they cross (docs/METHOD.md)."""
 
+DENSE_PAIRS = 4096
+""":func:`related_pairs` of at most this many (line, line) pairs tests their boxes all at once, more through a
+spatial index (most calls pair a few lines near a change: building an index costs more than the tests)."""
+
 
 @dataclass(frozen=True, eq=False)
 class Merged:
@@ -201,8 +205,17 @@ def related_pairs(
     reach = np.hypot(params.gap, params.distance) + _EPS
     op, oq = (p, q) if others is None else others
     lo, hi = np.minimum(p, q) - reach, np.maximum(p, q) + reach
-    tree = shapely.STRtree(shapely.linestrings(np.stack([op, oq], axis=1)))
-    a, b = tree.query(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]))  # boxes meeting: a superset, cheap
+    if len(p) * len(op) <= DENSE_PAIRS:  # boxes meeting: a superset, cheap
+        olo, ohi = np.minimum(op, oq), np.maximum(op, oq)
+        a, b = np.nonzero(
+            (lo[:, None, 0] <= ohi[:, 0])
+            & (hi[:, None, 0] >= olo[:, 0])
+            & (lo[:, None, 1] <= ohi[:, 1])
+            & (hi[:, None, 1] >= olo[:, 1])
+        )
+    else:
+        tree = shapely.STRtree(shapely.linestrings(np.stack([op, oq], axis=1)))
+        a, b = tree.query(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]))
     if others is None:
         keep = a < b
         a, b = a[keep], b[keep]
