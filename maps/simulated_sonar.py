@@ -100,15 +100,15 @@ def masked(actual: SonarScan, predicted_scan: SonarScan, predicted: Rcds, config
     shorter than it by more than the matching range gate: an object the map does
     not hold (glass, say) answered first, so the sonar could not have heard this one.
     """
-    hidden = np.zeros(len(predicted), dtype=bool)
-    if not len(actual):
-        return hidden
-    for k in range(len(predicted)):
-        i, j = int(predicted.start[k]), int(predicted.end[k])
-        idx = np.arange(i, j + 1) if j >= i else np.r_[i : len(predicted_scan), 0 : j + 1]
-        nearest = nearest_angles(actual.angles, predicted_scan.angles[idx])
-        hidden[k] = np.median(actual.ranges[nearest]) < predicted.range[k] - config.matching.range_gate
-    return hidden
+    if not len(actual) or not len(predicted):
+        return np.zeros(len(predicted), dtype=bool)
+    spans = [
+        np.arange(i, j + 1) if j >= i else np.r_[i : len(predicted_scan), 0 : j + 1]
+        for i, j in zip(predicted.start.tolist(), predicted.end.tolist(), strict=True)
+    ]
+    nearest = nearest_angles(actual.angles, predicted_scan.angles[np.concatenate(spans)])
+    heard = np.split(actual.ranges[nearest], np.cumsum([len(idx) for idx in spans])[:-1])  # each RCD's readings
+    return np.array([np.median(ranges) for ranges in heard]) < predicted.range - config.matching.range_gate
 
 
 def in_sight(

@@ -166,8 +166,8 @@ def near_segments(
 
 
 def nearest_angles(angles: ArrayLike, bearings: ArrayLike) -> NDArray[np.intp]:
-    """Index of the angle of ``angles`` (rad) nearest each of ``bearings`` (rad) around the circle: of the two
-    angles either side of a bearing (in order around the circle), the next one when both are as near.
+    """Index of the angle of ``angles`` (rad, at least one) nearest each of ``bearings`` (rad) around the circle:
+    of the two angles either side of a bearing (in order around the circle), the next one when both are as near.
 
     >>> nearest_angles(np.radians([0.0, 90.0, 180.0, 270.0]), np.radians([10.0, 350.0, 135.0, -100.0])).tolist()
     [0, 0, 2, 3]
