@@ -19,7 +19,8 @@ from numpy.typing import NDArray
 
 from evmap.maps.matching import match_rcds
 from evmap.sources.config_model import Config
-from evmap.sources.geometry import cast_rays, nearest_angles
+from evmap.sources.geometry import nearest_angles
+from evmap.sources.ray_casting import cast_rays
 from evmap.sources.rcd import Rcds, extract_rcds, wide_rcds
 from evmap.sources.readings import SonarScan
 from evmap.sources.sim.sonar import simulate_scan

@@ -282,7 +282,7 @@ def test_no_unidentified_object_is_placed_beyond_the_stripe_the_map_believes() -
     it, ``unidentified.masked_aim`` alone places that echo, cut by the north wall's, in sight too."""
     from evmap.maps.app.compare_metrics import fuse_rules
     from evmap.sources.config import config_from_data
-    from evmap.sources.geometry import cast_rays
+    from evmap.sources.ray_casting import cast_rays
 
     default = load_config("default")
     data = default.to_data()

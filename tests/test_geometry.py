@@ -8,15 +8,9 @@ import shapely
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from evmap.sources import geometry
-from evmap.sources.geometry import (
-    cast_rays,
-    cross,
-    crossings,
-    perpendicular_feet,
-    point_segment_distances,
-    ray_circle_distances,
-)
+from evmap.sources import geometry, ray_casting
+from evmap.sources.geometry import cross, crossings, perpendicular_feet, point_segment_distances, ray_circle_distances
+from evmap.sources.ray_casting import cast_rays
 
 coordinate = st.floats(-5, 5)
 point = st.lists(coordinate, min_size=2, max_size=2).map(np.array)
@@ -137,7 +131,7 @@ def test_cast_rays_gives_the_dense_computations_hits(seed: int, monkeypatch: pyt
     against every surface."""
     rng = np.random.default_rng([16, 7, seed])
     if seed % 3 == 0:
-        monkeypatch.setattr(geometry, "PAIRS", 1 + seed)
+        monkeypatch.setattr(ray_casting, "PAIRS", 1 + seed)
     shift = rng.choice([0.0, 1e6, -5e6])
     steps = rng.normal(0, 2, (int(rng.integers(2, 60)), 2))
     steps[::3, 0] = 0.0  # some walls along an axis

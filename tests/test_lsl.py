@@ -8,9 +8,9 @@ import shapely
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from evmap.sources.geometry import cast_rays
 from evmap.sources.params import LslParams, SonarParams
 from evmap.sources.polyline import fit_polylines, split_pieces
+from evmap.sources.ray_casting import cast_rays
 from evmap.sources.readings import LslSegments, concat_segments
 from evmap.sources.sim.lsl import LSL_NOISE_STREAM, lsl_segments, observe_lsl, observe_lsl_all, stripe_scan
 from evmap.sources.sim.scenario import Robot, Scenario, load_scenario

@@ -31,7 +31,7 @@ from evmap import configs
 from evmap.maps import Line
 from evmap.maps.app.run import Run, report, run_scenario
 from evmap.sources.config import config_from_data, load_config
-from evmap.sources.geometry import cast_rays
+from evmap.sources.ray_casting import cast_rays
 from evmap.sources.relation import relation
 from evmap.sources.sim.scenario import load_scenario
 from evmap.sources.sim.world import World

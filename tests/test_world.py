@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from evmap.sources.geometry import cast_rays
+from evmap.sources.ray_casting import cast_rays
 from evmap.sources.sim.scenario import Scenario, load_scenario
 from evmap.sources.sim.world import World, visible, wall_id
 

@@ -35,7 +35,8 @@ from numpy.typing import NDArray
 from evmap.maps.belief_map import BeliefMap
 from evmap.maps.occupancy import FREE_MAX, occupancy_from_masses, occupancy_masses
 from evmap.sources.config_model import Config
-from evmap.sources.geometry import cast_rays, point_segment_distances
+from evmap.sources.geometry import point_segment_distances
+from evmap.sources.ray_casting import cast_rays
 from evmap.sources.sim.sightings import seen_twice
 from evmap.sources.sim.surfaces import Surfaces
 from evmap.sources.sim.world import World

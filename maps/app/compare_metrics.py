@@ -45,7 +45,8 @@ from evmap.maps.app.run import Run
 from evmap.maps.observation import observe, sensing_config
 from evmap.maps.pipeline import fold_observation
 from evmap.sources.config_model import Config
-from evmap.sources.geometry import cast_rays, perpendicular_feet, point_segment_distances
+from evmap.sources.geometry import perpendicular_feet, point_segment_distances
+from evmap.sources.ray_casting import cast_rays
 from evmap.sources.readings import SonarScan
 from evmap.sources.sim.scenario import Scenario
 from evmap.sources.sim.surfaces import Surfaces

@@ -35,9 +35,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evmap.sources.geometry import cast_rays, crossings, point_segment_distances
+from evmap.sources.geometry import crossings, point_segment_distances
 from evmap.sources.params import LslParams
 from evmap.sources.polyline import fit_pieces, piece_members, split_pieces
+from evmap.sources.ray_casting import cast_rays
 from evmap.sources.readings import LslSegments, StripeScan, concat_segments
 from evmap.sources.sim.surfaces import Surfaces
 from evmap.sources.sim.world import World, visible

@@ -36,8 +36,8 @@ from numpy.typing import NDArray
 
 from evmap.sources.contour_property import CONTOUR_ARRAYS, ContourPropertySpec, contour_features
 from evmap.sources.detector import DETECTOR_ARRAYS, DETECTOR_CATEGORIES, MAX_PATCHES, DetectorSpec, detector_features
-from evmap.sources.geometry import cast_rays
 from evmap.sources.range_sensor import RANGE_ARRAYS, RANGE_CATEGORIES, RangeSpec, range_features
+from evmap.sources.ray_casting import cast_rays
 from evmap.sources.readings import LslSegments
 from evmap.sources.sensor_kinds import SENSOR_KINDS, DeclaredSensor, SensorKind
 from evmap.sources.sim.world import World, wall_id

@@ -49,12 +49,9 @@ from collections.abc import Iterator
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evmap.sources.geometry import (
-    bearing_pairs,
-    perpendicular_feet,
-    point_segment_distances,
-)
+from evmap.sources.geometry import perpendicular_feet, point_segment_distances
 from evmap.sources.params import SonarParams
+from evmap.sources.ray_casting import bearing_pairs
 from evmap.sources.readings import ScanError, SonarScan
 from evmap.sources.sim.sonar_near import (
     EPS,

@@ -15,15 +15,8 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from evmap.sources.geometry import (
-    bearing_intervals,
-    crossings,
-    merge_nearest,
-    nearest_first_pairs,
-    perpendicular_feet,
-    point_segment_distances,
-    ray_circle_pairs,
-)
+from evmap.sources.geometry import crossings, perpendicular_feet, point_segment_distances
+from evmap.sources.ray_casting import bearing_intervals, merge_nearest, nearest_first_pairs, ray_circle_pairs
 from evmap.sources.sim.surfaces import Surfaces
 
 __all__ = [
