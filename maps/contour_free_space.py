@@ -54,7 +54,7 @@ from evmap.maps.sensed import Sensed, farthest_returns, laid_out, rays_within
 from evmap.sources.geometry import crossings, near_segments
 from evmap.sources.params import LslParams
 
-__all__ = ["RayParams", "RayTally", "ray_features", "ray_tally", "stripe_edges", "went_on"]
+__all__ = ["RayParams", "RayTally", "ray_features", "ray_tally", "segments_facing", "stripe_edges", "went_on"]
 
 
 @dataclass(frozen=True)
@@ -326,3 +326,27 @@ def _positions(pose: NDArray[np.intp], poses: Sequence[Sensed]) -> NDArray[np.in
         at = np.minimum(np.searchsorted(index[order], pose), len(index) - 1)
         k = np.where(index[order][at] == pose, order[at], -1)
     return k
+
+
+def segments_facing(
+    p: NDArray[np.float64], q: NDArray[np.float64], poses: Sequence[Sensed], bearings: Sequence[NDArray[np.float64]]
+) -> NDArray[np.intp]:
+    """The segments p-q (their rows) whose span of bearings from some pose of ``poses`` (ends included) holds one of
+    that pose's ``bearings`` (in [-pi, pi), one array a pose): the only ones its rays of those bearings can cross
+    (:func:`ray_tally` pairs a segment with the rays of its span).
+
+    >>> s = Sensed(0, np.zeros(2), np.array([0.0, 0.7]), np.ones(2), None)
+    >>> p, q = np.array([[2.0, -1.0], [2.0, 1.0]]), np.array([[2.0, 1.0], [2.0, 3.0]])
+    >>> segments_facing(p, q, [s], [np.array([0.0])]).tolist(), segments_facing(p, q, [s], [np.array([0.7])]).tolist()
+    ([0], [1])
+    """
+    hit = np.zeros(len(p), dtype=bool)
+    for s, b in zip(poses, bearings, strict=True):
+        if not len(b):
+            continue
+        a1, a2 = (np.arctan2(e[:, 1] - s.origin[1], e[:, 0] - s.origin[0]) for e in (p, q))
+        span = (a2 - a1 + np.pi) % (2 * np.pi) - np.pi
+        lo = (np.where(span >= 0, a1, a2) + np.pi) % (2 * np.pi) - np.pi
+        twice = np.sort(np.concatenate([b, b + 2 * np.pi]))
+        hit |= np.searchsorted(twice, lo + np.abs(span), side="right") > np.searchsorted(twice, lo, side="left")
+    return np.flatnonzero(hit)

@@ -18,7 +18,14 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from evidential import combine_batch
-from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally, stripe_edges, went_on
+from evmap.maps.contour_free_space import (
+    RayParams,
+    ray_features,
+    ray_tally,
+    segments_facing,
+    stripe_edges,
+    went_on,
+)
 from evmap.maps.merging import related_pairs
 from evmap.maps.sensed import LATEST_POSES, SENSED_FEATURES, Sensed, keep_features, kept_features, sensed_near
 from evmap.maps.sonar_forward import SonarForwardParams, free_ends, sonar_forward
@@ -143,9 +150,9 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> NDArray[np.in
     }
     poses = sensed_near(bm, (*lo, *hi), config.sensors.lsl.max_range, LATEST_POSES)
     params = RayParams.of_stripe(config.sensors.lsl)
-    rays = read & {"contour_free", "lsl_persistence"}
-    if rays:
-        features |= _ray_features(store, ids, poses, params)
+    beyond = _beyond(store, poses, params) if read & {"contour_free", "lsl_persistence"} else None
+    if beyond is not None:
+        features |= ray_features(ray_tally(p, q, pose, poses, params, beyond or None), params)
     if "sonar_forward" in read:
         sonar = SonarForwardParams()
         heard = [s for s in poses if s.sonar is not None]  # no sonar reading: silent, nothing to compute
@@ -154,10 +161,11 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> NDArray[np.in
             free = free_ends(p, q, cp, cq, sonar.end_clearance) & stripe_edges(p, q, pose, poses, params)
         features["sonar_forward"] = sonar_forward(p, q, free, heard, sonar)
     ev = noise_evidence(p, q, space, config, features)
-    if rays and any(s.all_returns for s in poses) and (ev.eliminated & ~store.eliminated[ids]).any():
+    if beyond and (ev.eliminated & ~store.eliminated[ids]).any():
+        flipped = set(pose[ev.eliminated != store.eliminated[ids]].tolist())  # the poses whose rays went on anew
         store.write(ids, eliminated=ev.eliminated)  # a second look, through what this judgement found noise
-        features |= _ray_features(store, ids, poses, params)
-        ev = noise_evidence(p, q, space, config, features)
+        again = [_went_on(store, s, params) if s.pose_index in flipped else b for s, b in zip(poses, beyond)]
+        ev, features = _second_look(store, ids, space, config, poses, (beyond, again), features, ev)
     keep_features(bm, ids, {name: features[name] for name in SENSED_FEATURES if name in features})
     store.write(ids, relation=ev.relation, mass=ev.fused, conflict=ev.conflict, eliminated=ev.eliminated)
     after = _verdicts(bm, ids)
@@ -187,19 +195,51 @@ def unsettled(bm: BeliefMap, rows: NDArray[np.intp]) -> NDArray[np.intp]:
     return rows[~old]
 
 
-def _ray_features(
-    store: SegmentStore, ids: NDArray[np.intp], poses: list[Sensed], params: RayParams
-) -> dict[str, NDArray[np.str_]]:
-    """``contour_free`` and ``lsl_persistence`` of the segments ``ids``, the rays that went on beyond points on
-    each pose's segments now judged noise counted as going through what lies behind them."""
-    beyond = None  # no ray went on, unless a pose's sensor reports every surface a ray lit
-    if any(s.all_returns for s in poses):
-        beyond = []
-        for s in poses:
-            rows = store.seen_from(s.pose_index) if s.all_returns else np.zeros(0, dtype=np.intp)
-            noise, kept = rows[store.eliminated[rows]], rows[~store.eliminated[rows]]
-            beyond.append(went_on(s, (store.p[noise], store.q[noise]), (store.p[kept], store.q[kept]), params))
-    return ray_features(ray_tally(store.p[ids], store.q[ids], store.pose[ids], poses, params, beyond), params)
+def _beyond(store: SegmentStore, poses: list[Sensed], params: RayParams) -> list[NDArray[np.bool_]]:
+    """Per pose, the rays that went on beyond their points on the pose's segments now judged noise
+    (:func:`~evmap.maps.contour_free_space.went_on`); an empty list when no pose's sensor reports every surface a
+    ray lit (then no ray went on)."""
+    return [_went_on(store, s, params) for s in poses] if any(s.all_returns for s in poses) else []
+
+
+def _went_on(store: SegmentStore, s: Sensed, params: RayParams) -> NDArray[np.bool_]:
+    """:func:`~evmap.maps.contour_free_space.went_on` of the pose ``s`` through its segments now judged noise."""
+    rows = store.seen_from(s.pose_index) if s.all_returns else np.zeros(0, dtype=np.intp)
+    noise, kept = rows[store.eliminated[rows]], rows[~store.eliminated[rows]]
+    return went_on(s, (store.p[noise], store.q[noise]), (store.p[kept], store.q[kept]), params)
+
+
+def _second_look(
+    store: SegmentStore,
+    ids: NDArray[np.intp],
+    space: shapely.Geometry,
+    config: Config,
+    poses: list[Sensed],
+    beyond: tuple[list[NDArray[np.bool_]], list[NDArray[np.bool_]]],
+    features: dict[str, NDArray[np.generic]],
+    ev: NoiseEvidence,
+) -> tuple[NoiseEvidence, dict[str, NDArray[np.generic]]]:
+    """:func:`judge`'s verdict ``ev`` on the segments ``ids`` again, the rays that went on beyond their points
+    (:func:`_beyond`) before and after the segments it has just found noise: only the segments whose bearings from
+    a pose hold a ray of it that changed are tallied again, and only those whose features changed judged again (a
+    segment's verdict is its own)."""
+    params = RayParams.of_stripe(config.sensors.lsl)
+    before, again = beyond
+    p, q, pose = store.p[ids], store.q[ids], store.pose[ids]
+    rows = segments_facing(p, q, poses, [s.bearing[a != b] for s, a, b in zip(poses, before, again, strict=True)])
+    new = ray_features(ray_tally(p[rows], q[rows], pose[rows], poses, params, again), params)
+    moved = rows[np.logical_or.reduce([new[k] != features[k][rows] for k in new], initial=False)]
+    if not len(moved):
+        return ev, features
+    features = dict(features)
+    for name, values in new.items():
+        features[name] = features[name].copy()
+        features[name][rows] = values
+    part = noise_evidence(p[moved], q[moved], space, config, {k: np.asarray(v)[moved] for k, v in features.items()})
+    fields = {name: getattr(ev, name).copy() for name in ("relation", "length", "fused", "conflict", "eliminated")}
+    for name, values in fields.items():
+        values[moved] = getattr(part, name)
+    return NoiseEvidence(**fields), features
 
 
 def _near_each(store: SegmentStore, p: NDArray[np.float64], q: NDArray[np.float64], reach: float) -> NDArray[np.intp]:

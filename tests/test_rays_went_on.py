@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from evmap.maps.belief_map import new_map
-from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally, went_on
+from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally, segments_facing, went_on
 from evmap.maps.observation import observation_from_arrays, observe
 from evmap.maps.pipeline import fold_observation
 from evmap.maps.sensed import Sensed, sensed, sensed_from_json, sensed_json
@@ -104,3 +104,54 @@ def test_a_tour_seen_by_a_threshold_camera_loses_more_phantoms_and_no_wall() -> 
         out[every] = [int((store.eliminated & (store.truth == truth)).sum()) for truth in ("noise", "real")]
     assert out[True][0] >= out[False][0] + 5
     assert out[True][1] <= out[False][1]
+
+
+def test_the_second_look_judges_again_what_the_rays_that_went_on_anew_change_as_a_whole_judgement_would(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """judge's second look tallies again only the segments facing a ray that went on anew (segments_facing), and
+    judges again only those whose features changed: on generated tours seen by a threshold camera, the same map to
+    the bit as tallying every segment again."""
+    from evmap.maps import noise
+
+    config = load_config("default")
+    looks = []
+
+    def every(p, q, poses, bearings):  # every segment tallied again
+        looks.append(sum(len(b) for b in bearings))
+        return np.arange(len(p))
+
+    for seed in (0, 3):
+        world = World(generate_world(seed, WorldGenParams(column_max_share=0.0)))
+        observations = [observe(world, k, config) for k in range(len(world.poses))]
+        maps = []
+        for facing in (noise.segments_facing, every):
+            monkeypatch.setattr(noise, "segments_facing", facing)
+            bm = new_map(config)
+            for obs in observations:
+                fold_observation(bm, obs, config)
+            maps.append(bm)
+        a, b = (bm.segments for bm in maps)
+        assert np.array_equal(a.eliminated, b.eliminated) and np.array_equal(a.mass, b.mass)
+        assert np.array_equal(a.relation, b.relation)
+        assert sorted(maps[0].line_ids()) == sorted(maps[1].line_ids())
+    assert looks and max(looks) > 0  # second looks were taken, rays went on anew
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_segments_facing_holds_every_segment_a_ray_of_those_bearings_crosses(seed: int) -> None:
+    """Random segments and rays from two poses: every segment that ray_tally finds a ray of the given bearings
+    crossing (a tally of those rays alone) is among those segments_facing gives."""
+    rng = np.random.default_rng([39, seed])
+    poses = []
+    for k in range(2):
+        bearing = np.sort(rng.uniform(-np.pi, np.pi, 60))
+        poses.append(Sensed(k, rng.normal(0, 1, 2), bearing, rng.uniform(0.5, 6, 60), None))
+    p = rng.normal(0, 3, (40, 2))
+    q = p + rng.normal(0, 1.5, (40, 2))
+    chosen = [rng.random(60) < 0.2 for _ in poses]
+    alone = [Sensed(s.pose_index, s.origin, s.bearing[c], s.range[c], None) for s, c in zip(poses, chosen)]
+    tally = ray_tally(p, q, np.full(40, 9), alone, RayParams())
+    crossed = np.flatnonzero((tally.ends + tally.passes + tally.other_hidden.sum(axis=1)) > 0)
+    facing = segments_facing(p, q, poses, [s.bearing for s in alone])
+    assert set(crossed.tolist()) <= set(facing.tolist())
