@@ -120,14 +120,12 @@ def went_on(
     out = np.zeros(len(s.range), dtype=bool)
     if not s.all_returns or not len(noise[0]):
         return out
-    ok = np.flatnonzero(np.isfinite(farthest_returns(s).range))
-    r = s.range[ok]
-    xy = s.origin + r[:, None] * np.column_stack([np.cos(s.bearing[ok]), np.sin(s.bearing[ok])])
-    tol = params.tolerance + 3 * params.range_noise * r
-    on = near_segments(xy, *noise, tol)
+    returned = np.flatnonzero(np.isfinite(s.range))  # the rays of s.points
+    tol = params.tolerance + 3 * params.range_noise * s.range[returned]
+    on = near_segments(s.points, *noise, tol, s.point_index) & np.isfinite(farthest_returns(s).range[returned])
     if len(kept[0]) and on.any():
-        on[on] = ~near_segments(xy[on], *kept, tol[on])
-    out[ok[on]] = True
+        on[on] = ~near_segments(s.points[on], *kept, tol[on])
+    out[returned[on]] = True
     return out
 
 
