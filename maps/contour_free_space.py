@@ -147,10 +147,8 @@ def _crossings(
     _, _, bearing, rng = laid_out(poses)
     a = (p[None] - origin[:, None]).reshape(-1, 2)  # (pose, segment) pairs, pose-major
     b = (q[None] - origin[:, None]).reshape(-1, 2)
-    a1, a2 = np.arctan2(a[:, 1], a[:, 0]), np.arctan2(b[:, 1], b[:, 0])
-    span = (a2 - a1 + np.pi) % (2 * np.pi) - np.pi
-    lo = (np.where(span >= 0, a1, a2) + np.pi) % (2 * np.pi) - np.pi
-    pair, ray = rays_within(poses, np.repeat(np.arange(m), n), lo, np.abs(span))
+    lo, width = _spans(a, b)
+    pair, ray = rays_within(poses, np.repeat(np.arange(m), n), lo, width)
     k, seg = pair // n, pair % n
     r = rng[ray]
     u = np.take(np.column_stack([np.cos(bearing), np.sin(bearing)]), ray, axis=0)  # u[ray], faster
@@ -342,9 +340,15 @@ def segments_facing(
     for s, b in zip(poses, bearings, strict=True):
         if not len(b):
             continue
-        a1, a2 = (np.arctan2(e[:, 1] - s.origin[1], e[:, 0] - s.origin[0]) for e in (p, q))
-        span = (a2 - a1 + np.pi) % (2 * np.pi) - np.pi
-        lo = (np.where(span >= 0, a1, a2) + np.pi) % (2 * np.pi) - np.pi
+        lo, width = _spans(p - s.origin, q - s.origin)
         twice = np.sort(np.concatenate([b, b + 2 * np.pi]))
-        hit |= np.searchsorted(twice, lo + np.abs(span), side="right") > np.searchsorted(twice, lo, side="left")
+        hit |= np.searchsorted(twice, lo + width, side="right") > np.searchsorted(twice, lo, side="left")
     return np.flatnonzero(hit)
+
+
+def _spans(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The bearings of segments seen from the origin, their ends at ``a`` and ``b`` (N, 2): where each span of
+    bearings starts, in [-pi, pi), and how wide it is (under pi)."""
+    a1, a2 = np.arctan2(a[:, 1], a[:, 0]), np.arctan2(b[:, 1], b[:, 0])
+    span = (a2 - a1 + np.pi) % (2 * np.pi) - np.pi
+    return (np.where(span >= 0, a1, a2) + np.pi) % (2 * np.pi) - np.pi, np.abs(span)
