@@ -45,6 +45,7 @@ from evmap.sources.sim.world import World, visible
 
 __all__ = [
     "LSL_NOISE_STREAM",
+    "PHANTOM_BRIGHTNESS_STREAM",
     "PHANTOM_NOISE_STREAM",
     "SUNLIGHT_STREAM",
     "lsl_segments",
@@ -63,6 +64,9 @@ SUNLIGHT_STREAM = 102
 
 PHANTOM_NOISE_STREAM = 103
 """Stream number of the range noise of the phantoms' stripe points: ``default_rng([seed, pose_index, 103])``."""
+
+PHANTOM_BRIGHTNESS_STREAM = 104
+"""Stream number of the sunlit patches' brightness (``column_max``): ``default_rng([seed, pose_index, 104])``."""
 
 
 def _wrap(angle: ArrayLike) -> NDArray[np.float64]:
@@ -193,6 +197,16 @@ def _phantom_hits(
     return phantom, ray, t[phantom, ray]
 
 
+def _brightest_per_column(column: NDArray[np.intp], brightness: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """(H,) whether each hit is the brightest of its column's (ties: the first), in the hits' order."""
+    order = np.lexsort((-brightness, column))
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = column[order][1:] != column[order][:-1]
+    keep = np.zeros(len(order), dtype=bool)
+    keep[order[first]] = True
+    return keep
+
+
 def observe_stripe(world: World, pose_index: int, params: LslParams) -> tuple[LslSegments, NDArray[np.float64]]:
     """All LSL segments seen from one of the world's poses (real ones, then sunlight phantoms) and the stripe's rays.
 
@@ -202,9 +216,11 @@ def observe_stripe(world: World, pose_index: int, params: LslParams) -> tuple[Ls
     meets it nearer than the real stripe, triangulated with the same range noise,
     and its segment is fitted to those points as a wall's is. With the scenario's
     ``sensors.lsl.detector`` ``threshold`` the real stripe behind the patch is seen
-    too; with ``column_max`` the patch's points replace it in those columns, and
-    the real segments are fitted to what is left. A phantom met by fewer than two
-    rays keeps the line it was drawn as.
+    too; with ``column_max`` the camera keeps one point a column, the brightest, in
+    place of the real stripe: of the patches a ray meets, the one of the most
+    brightness (each phantom line's, uniform in [0, 1), drawn anew for the pose),
+    and the real segments are fitted to what is left. A phantom met by fewer than two rays (or, with
+    ``column_max``, keeping fewer than two points) keeps the line it was drawn as.
 
     Returns the segments and the rays, (K, 2): the world bearing (rad) and the
     measured range (m; NaN: no return) of every stripe point the camera kept.
@@ -224,6 +240,11 @@ def observe_stripe(world: World, pose_index: int, params: LslParams) -> tuple[Ls
     snapshot = np.abs(_wrap(bearing[:, None] - scan.angles.mean(axis=1))).argmin(axis=1).astype(np.intp)
     phantom, ray, true_range = _phantom_hits(scan, p, q, snapshot)
     noise = np.random.default_rng([world.seed, pose_index, PHANTOM_NOISE_STREAM]).standard_normal(len(ray))
+    column_max = world.scenario.sensors.lsl.detector == "column_max"
+    if column_max:  # one pixel a column: of the sunlit patches a ray meets, the camera keeps the brightest
+        brightness = np.random.default_rng([world.seed, pose_index, PHANTOM_BRIGHTNESS_STREAM]).random(len(p))
+        first = _brightest_per_column(snapshot[phantom] * scan.angles.shape[1] + ray, brightness[phantom])
+        phantom, ray, true_range, noise = phantom[first], ray[first], true_range[first], noise[first]
     measured = true_range * (1 + params.range_noise * noise)
     angle = scan.angles[snapshot[phantom], ray]
     points = scan.origin + measured[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
@@ -234,7 +255,7 @@ def observe_stripe(world: World, pose_index: int, params: LslParams) -> tuple[Ls
     p, q = p.copy(), q.copy()
     p[fitted], q[fitted] = fp, fq
     replaced = np.zeros(scan.ranges.shape, dtype=bool)
-    if world.scenario.sensors.lsl.detector == "column_max":  # the brightest pixel of a column is the sunlit one
+    if column_max:  # the brightest pixel of a column is the sunlit one
         replaced[snapshot[phantom], ray] = True
         scan = StripeScan(scan.origin, scan.angles, np.where(replaced, np.nan, scan.ranges), scan.true_ranges, scan.hit)
     real = scan_segments(scan, surfaces, params, pose_index)
