@@ -115,6 +115,25 @@ def test_a_run_the_matching_gave_to_a_wall_end_is_a_pane_where_the_map_does_not_
     assert _pane_runs(pane, JAMB, config=load_config("paper")) == []
 
 
+NEAR_END = [((-3, 1), (-0.6, 1)), ((0.17, 1), (3, 1))]
+"""The wall y = 1 with a gap from x = -0.6 to 0.17: the map predicts the end at (0.17, 1), 10 deg off the pane's
+normal, heard from 70 to 91 deg: its echo reaches the normal by the beam's width."""
+
+
+def test_a_run_given_to_a_wall_end_whose_echo_reaches_the_normal_is_a_pane_if_heard_beyond_the_normal() -> None:
+    config = load_config("default")
+    pane = {k: 1.0 for k in range(78, 103)}  # the pane and the wall beside it heard square, 78 to 102 deg
+    check = _check(pane, NEAR_END, config)
+    assert check.matched[0].tolist() == [0] and check.predicted.target[check.matched[1]].tolist() == ["E1a"]
+    heard = check.predicted_scan.ranges[[70, 90, 91, 92]]
+    assert np.abs(heard - 1.0).round(3).tolist() == [0.014, 0.014, 0.014, 9.0]  # the end's echo at the normal
+    assert _pane_runs(pane, NEAR_END) == [78]  # 11 readings beyond the normal, 92 to 102 deg, unpredicted
+    end = {k: 1.014 for k in range(70, 92)}  # the end's own echo, as the map predicts it
+    assert _pane_runs(end, NEAR_END) == []
+    assert _pane_runs({k: 1.0 for k in range(78, 94)}, NEAR_END) == []  # two readings beyond: a jamb's, no pane
+    assert _pane_runs(pane, NEAR_END, config=load_config("paper")) == []
+
+
 def test_a_pane_is_in_line_only_with_a_line_long_enough_to_carry_on() -> None:
     square = {k: 2.0 for k in range(87, 94)} | {86: 1.5, 94: 1.5}
     assert _pane_runs(square, lines=[((0.6, 2), (0.75, 2))]) == []  # a 15 cm stub: its direction not known enough
