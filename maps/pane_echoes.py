@@ -277,8 +277,9 @@ def _beyond_normal(
     at the run's range on the far side of the pane's ``normal`` from the middle of that predicted RCD: the
     map's echo of a wall end beside the pane reaches the normal by the beam's width, a pane heard square
     echoes on both sides of it."""
-    actual = dict(zip(check.actual.start[check.matched[0]].tolist(), check.matched[1].tolist(), strict=True))
-    middle = check.predicted.direction[[actual[start] for start in check.runs.start[which].tolist()]]
+    # the predicted RCD matched to each actual one, by the actual RCD's first reading
+    partner = dict(zip(check.actual.start[check.matched[0]].tolist(), check.matched[1].tolist(), strict=True))
+    middle = check.predicted.direction[[partner[start] for start in check.runs.start[which].tolist()]]
     side = np.sign(np.angle(np.exp(1j * (middle - normal))))
     run, axis, off = _readings(check, which, config)
     beyond = np.sign(np.angle(np.exp(1j * (axis - normal[run])))) == -side[run]

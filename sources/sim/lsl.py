@@ -216,11 +216,11 @@ def observe_stripe(world: World, pose_index: int, params: LslParams) -> tuple[Ls
     meets it nearer than the real stripe, triangulated with the same range noise,
     and its segment is fitted to those points as a wall's is. With the scenario's
     ``sensors.lsl.detector`` ``threshold`` the real stripe behind the patch is seen
-    too; with ``column_max`` the camera keeps one point a column, the brightest, in
-    place of the real stripe: of the patches a ray meets, the one of the most
-    brightness (each phantom line's, uniform in [0, 1), drawn anew for the pose),
-    and the real segments are fitted to what is left. A phantom met by fewer than two rays (or, with
-    ``column_max``, keeping fewer than two points) keeps the line it was drawn as.
+    too; with ``column_max`` the camera keeps one point a column in place of the
+    real stripe, the brightest patch's of those the ray meets (each phantom line
+    has a brightness, uniform in [0, 1) and drawn anew for the pose), and the real
+    segments are fitted to what is left. A phantom met by fewer than two rays (or,
+    with ``column_max``, keeping fewer than two points) keeps the line it was drawn as.
 
     Returns the segments and the rays, (K, 2): the world bearing (rad) and the
     measured range (m; NaN: no return) of every stripe point the camera kept.
@@ -243,8 +243,8 @@ def observe_stripe(world: World, pose_index: int, params: LslParams) -> tuple[Ls
     column_max = world.scenario.sensors.lsl.detector == "column_max"
     if column_max:  # one pixel a column: of the sunlit patches a ray meets, the camera keeps the brightest
         brightness = np.random.default_rng([world.seed, pose_index, PHANTOM_BRIGHTNESS_STREAM]).random(len(p))
-        first = _brightest_per_column(snapshot[phantom] * scan.angles.shape[1] + ray, brightness[phantom])
-        phantom, ray, true_range, noise = phantom[first], ray[first], true_range[first], noise[first]
+        top = _brightest_per_column(snapshot[phantom] * scan.angles.shape[1] + ray, brightness[phantom])
+        phantom, ray, true_range, noise = phantom[top], ray[top], true_range[top], noise[top]
     measured = true_range * (1 + params.range_noise * noise)
     angle = scan.angles[snapshot[phantom], ray]
     points = scan.origin + measured[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
