@@ -64,6 +64,7 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 
 from evmap.maps.group_fit import group_lines, refit_groups
+from evmap.sources.geometry import boxes_meet
 from evmap.sources.params import MergeParams
 
 __all__ = ["Merged", "check_segments", "merge_segments", "related_pairs"]
@@ -206,13 +207,7 @@ def related_pairs(
     op, oq = (p, q) if others is None else others
     lo, hi = np.minimum(p, q) - reach, np.maximum(p, q) + reach
     if len(p) * len(op) <= DENSE_PAIRS:  # boxes meeting: a superset, cheap
-        olo, ohi = np.minimum(op, oq), np.maximum(op, oq)
-        a, b = np.nonzero(
-            (lo[:, None, 0] <= ohi[:, 0])
-            & (hi[:, None, 0] >= olo[:, 0])
-            & (lo[:, None, 1] <= ohi[:, 1])
-            & (hi[:, None, 1] >= olo[:, 1])
-        )
+        a, b = np.nonzero(boxes_meet(lo[:, None], hi[:, None], np.minimum(op, oq), np.maximum(op, oq)))
     else:
         tree = shapely.STRtree(shapely.linestrings(np.stack([op, oq], axis=1)))
         a, b = tree.query(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]))

@@ -13,6 +13,7 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "boxes_meet",
     "cross",
     "crossings",
     "line_distances",
@@ -116,6 +117,24 @@ def point_segment_distances(xy: ArrayLike, p: ArrayLike, q: ArrayLike) -> NDArra
     t = np.clip(_parameters(xy, p, d), 0.0, 1.0)
     gap = p + t[..., None] * d - xy
     return np.hypot(gap[..., 0], gap[..., 1])
+
+
+def boxes_meet(lo: ArrayLike, hi: ArrayLike, other_lo: ArrayLike, other_hi: ArrayLike) -> NDArray[np.bool_]:
+    """Whether axis-aligned boxes (corners ``lo``-``hi``, (..., 2)) meet the boxes ``other_lo``-``other_hi``,
+    edges touching included; the shapes broadcast (``lo[:, None]`` against ``other_lo``: every pair).
+
+    >>> boxes_meet([[0, 0], [2, 2]], [[1, 1], [3, 3]], [1, 0], [2, 1]).tolist()  # the first touches its corner
+    [True, False]
+    >>> boxes_meet(np.array([[0.0, 0.0]])[:, None], np.array([[1.0, 1.0]])[:, None], [[2, 0], [0.5, 0.5]], [[3, 1], [4, 4]])
+    array([[False,  True]])
+    """
+    lo, hi, other_lo, other_hi = (np.asarray(a) for a in (lo, hi, other_lo, other_hi))
+    return (
+        (lo[..., 0] <= other_hi[..., 0])
+        & (hi[..., 0] >= other_lo[..., 0])
+        & (lo[..., 1] <= other_hi[..., 1])
+        & (hi[..., 1] >= other_lo[..., 1])
+    )
 
 
 def near_segments(

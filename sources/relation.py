@@ -19,7 +19,7 @@ import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
 
-from evmap.sources.geometry import crossings, perpendicular_feet
+from evmap.sources.geometry import boxes_meet, crossings, perpendicular_feet
 from evmap.sources.params import NoiseParams
 
 __all__ = ["RELATIONS", "inside_fraction", "relation"]
@@ -134,8 +134,7 @@ def _box_pairs(
     count = np.minimum(CHUNK, len(edge_lo) - start[chunk])
     seg = np.repeat(seg, count)
     edge = np.repeat(start[chunk], count) + np.arange(len(seg)) - np.repeat(np.cumsum(count) - count, count)
-    elo, ehi, slo, shi = edge_lo[edge], edge_hi[edge], lo[seg], hi[seg]
-    meets = (elo[:, 0] <= shi[:, 0]) & (elo[:, 1] <= shi[:, 1]) & (ehi[:, 0] >= slo[:, 0]) & (ehi[:, 1] >= slo[:, 1])
+    meets = boxes_meet(lo[seg], hi[seg], edge_lo[edge], edge_hi[edge])
     return seg[meets], edge[meets]
 
 
