@@ -51,7 +51,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed, farthest_returns, laid_out, rays_within
-from evmap.sources.geometry import crossings, near_segments
+from evmap.sources.geometry import crossings, near_segments, wrapped
 from evmap.sources.params import LslParams
 
 __all__ = ["RayParams", "RayTally", "ray_features", "ray_tally", "segments_facing", "stripe_edges", "went_on"]
@@ -271,7 +271,7 @@ def stripe_edges(
     origin = np.array([s.origin for s in poses], dtype=float)[k[rows]]
     a, b = p[rows] - origin, q[rows] - origin
     ba, bb = np.arctan2(a[:, 1], a[:, 0]), np.arctan2(b[:, 1], b[:, 0])
-    outward = np.where((bb - ba + np.pi) % (2 * np.pi) - np.pi >= 0, 1.0, -1.0)  # from p towards q
+    outward = np.where(wrapped(bb - ba) >= 0, 1.0, -1.0)  # from p towards q
     end = np.stack([a, b], axis=1).reshape(-1, 2)
     end_bearing = np.column_stack([ba, bb]).ravel()
     sign = np.column_stack([-outward, outward]).ravel()
@@ -350,5 +350,5 @@ def _spans(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[NDArray[np.f
     """The bearings of segments seen from the origin, their ends at ``a`` and ``b`` (N, 2): where each span of
     bearings starts, in [-pi, pi), and how wide it is (under pi)."""
     a1, a2 = np.arctan2(a[:, 1], a[:, 0]), np.arctan2(b[:, 1], b[:, 0])
-    span = (a2 - a1 + np.pi) % (2 * np.pi) - np.pi
-    return (np.where(span >= 0, a1, a2) + np.pi) % (2 * np.pi) - np.pi, np.abs(span)
+    span = wrapped(a2 - a1)
+    return wrapped(np.where(span >= 0, a1, a2)), np.abs(span)

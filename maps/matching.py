@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from evmap.sources.geometry import wrapped
 from evmap.sources.params import MatchParams
 
 __all__ = ["match_rcds"]
@@ -79,7 +80,7 @@ def match_rcds(
     params = MatchParams() if params is None else params
     a_dir, a_rng = _rcds(actual_dir, actual_range, "actual")
     s_dir, s_rng = _rcds(sim_dir, sim_range, "sim")
-    dtheta = np.angle(np.exp(1j * (a_dir[:, None] - s_dir[None, :])))  # circular difference
+    dtheta = wrapped(a_dir[:, None] - s_dir[None, :])  # circular difference
     drange = a_rng[:, None] - s_rng[None, :]
     gate_a, scale_a = np.radians(params.angle_gate_deg), np.radians(params.angle_scale_deg)
     admissible = (np.abs(dtheta) <= gate_a + _EPS) & (np.abs(drange) <= params.range_gate + _EPS)

@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 
 from evmap.maps.sensed import heard_from, pose_sensed
 from evmap.sources.config_model import Config
-from evmap.sources.geometry import crossings
+from evmap.sources.geometry import crossings, wrapped
 from evmap.sources.sim.sonar import echo_halfwidth
 
 if TYPE_CHECKING:
@@ -238,6 +238,6 @@ def may_stand(
     >>> may_stand(np.array([2.0, 1.0, 2.0]), toward, lambda d: np.full_like(d, 0.2), echoes, 0.3)
     array([False,  True,  True])
     """
-    off = np.abs((echoes[0][None] - np.arctan2(toward[:, 1], toward[:, 0])[:, None] + np.pi) % (2 * np.pi) - np.pi)
+    off = np.abs(wrapped(echoes[0][None] - np.arctan2(toward[:, 1], toward[:, 0])[:, None]))
     aimed = off <= halfwidth(d)[:, None]
     return ~aimed.any(axis=1) | (aimed & (echoes[1][None] <= (d + margin)[:, None])).any(axis=1)

@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 from evmap.maps.free_space import FreeSpaceParams
 from evmap.maps.simulated_sonar import SonarCheck, in_sight
 from evmap.sources.config_model import Config
-from evmap.sources.geometry import nearest_angles, perpendicular_feet, point_segment_distances
+from evmap.sources.geometry import nearest_angles, perpendicular_feet, point_segment_distances, wrapped
 from evmap.sources.rcd import TYPE_IV
 from evmap.sources.sim.sonar import echo_halfwidth
 
@@ -167,7 +167,7 @@ def _in_line(
     distance = np.hypot(away[:, 0], away[:, 1])
     gap = point_segment_distances(foot[:, None], p, q).min(axis=1) > params.explained_distance
     bearing = np.arctan2(away[:, 1], away[:, 0])
-    off = np.angle(np.exp(1j * (bearing - runs.direction[which, None])))  # (R, L): signed, from each run's middle
+    off = wrapped(bearing - runs.direction[which, None])  # (R, L): signed, from each run's middle
     miss = np.abs(distance - runs.range[which, None])
     wall = np.hypot(*(q - p).T) >= MIN_LINE
     fits = (miss <= params.pane_in_line) & _normal_fits(check, which, off, config) & gap & wall & (distance > 0)
@@ -204,7 +204,7 @@ def _framed(
         # a_hi), within the span and a frame of its foot
         a_lo = np.arccos(np.clip((r + tol) / far, -1.0, 1.0))
         a_hi = np.arccos(np.clip((r - tol) / far, -1.0, 1.0))
-        d = np.angle(np.exp(1j * (towards - runs.direction[j])))
+        d = wrapped(towards - runs.direction[j])
         lo, hi = offs.min() - SLACK, offs.max() + SLACK
         near = ((d - a_hi <= hi) & (d - a_lo >= lo)) | ((d + a_lo <= hi) & (d + a_hi >= lo))
         near &= (far >= r - tol) & (far <= np.hypot(r + tol, span + FRAME))
@@ -280,9 +280,9 @@ def _beyond_normal(
     # the predicted RCD matched to each actual one, by the actual RCD's first reading
     partner = dict(zip(check.actual.start[check.matched[0]].tolist(), check.matched[1].tolist(), strict=True))
     middle = check.predicted.direction[[partner[start] for start in check.runs.start[which].tolist()]]
-    side = np.sign(np.angle(np.exp(1j * (middle - normal))))
+    side = np.sign(wrapped(middle - normal))
     run, axis, off = _readings(check, which, config)
-    beyond = np.sign(np.angle(np.exp(1j * (axis - normal[run])))) == -side[run]
+    beyond = np.sign(wrapped(axis - normal[run])) == -side[run]
     return np.bincount(run, weights=off & beyond, minlength=len(which)).astype(np.intp)
 
 

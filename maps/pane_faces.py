@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from evmap.maps.free_space import FreeSpaceParams
 from evmap.maps.sensed import heard_from, laid_out, pose_sensed, rays_within
+from evmap.sources.geometry import wrapped
 
 if TYPE_CHECKING:
     from evmap.maps.belief_map import BeliefMap
@@ -56,7 +57,7 @@ def pane_faces(bm: BeliefMap, objects: Iterable[str], width: float, radius: floa
     origin = np.array([s.origin for s in poses], dtype=float).reshape(-1, 2)
     d = xy[obj] - origin[at]
     n = np.hypot(*d.T)
-    lo = (np.arctan2(d[:, 1], d[:, 0]) - max_gap + np.pi) % (2 * np.pi) - np.pi
+    lo = wrapped(np.arctan2(d[:, 1], d[:, 0]) - max_gap)
     pair, ray = rays_within(poses, at, lo, np.full(len(lo), 2 * max_gap))
     _, _, bearing, rng = laid_out(poses)
     t = bearing[ray]

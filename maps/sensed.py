@@ -22,6 +22,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from evmap.sources.geometry import wrapped
 from evmap.sources.params import SonarParams
 from evmap.sources.readings import SonarScan
 
@@ -144,7 +145,7 @@ def remember(bm: BeliefMap, obs: Observation) -> Sensed:
     ([0], True)
     """
     rays = np.zeros((0, 2)) if obs.rays is None else np.asarray(obs.rays, dtype=float).reshape(-1, 2)
-    bearing = (rays[:, 0] + np.pi) % (2 * np.pi) - np.pi
+    bearing = wrapped(rays[:, 0])
     order = np.argsort(bearing, kind="stable")
     kept = Sensed(
         int(obs.pose_index), np.array(obs.pose[:2]), bearing[order], rays[order, 1], obs.sonar, bool(obs.all_returns)

@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed
-from evmap.sources.geometry import point_segment_distances
+from evmap.sources.geometry import point_segment_distances, wrapped
 from evmap.sources.readings import SonarScan
 from evmap.sources.sim.sonar import echo_halfwidth
 
@@ -67,7 +67,7 @@ def _readings(
     if not len(valid):
         return near, beyond
     bearing, r, w = bearing[valid], r[valid], w[valid]
-    diff = np.abs((scan.angles[None, :] - bearing[:, None] + np.pi) % (2 * np.pi) - np.pi)
+    diff = np.abs(wrapped(scan.angles[None, :] - bearing[:, None]))
     window = diff <= np.maximum(w, scan.step / 2)[:, None]
     ranges = scan.ranges[None, :]
     near[valid] = (window & (np.abs(ranges - r[:, None]) <= tolerance)).any(axis=1)

@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field, Strict, ValidationInfo, field_validator, model_validator
 
+from evmap.sources.geometry import wrapped
 from evmap.sources.sensor_kinds import SensorSpec
 
 __all__ = [
@@ -112,7 +113,7 @@ class DetectorSpec(SensorSpec):
         """(M,) whether each point is within range and field of view of the pose."""
         d = points - pose[:2]
         bearing = np.arctan2(d[:, 1], d[:, 0]) - pose[2] - np.radians(self.facing_deg)
-        off = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
+        off = np.abs(wrapped(bearing))
         return (np.hypot(d[:, 0], d[:, 1]) <= self.max_range) & (off <= np.radians(self.fov_deg) / 2 + 1e-12)
 
 

@@ -168,6 +168,18 @@ def near_segments(
     return out
 
 
+def wrapped(angle: ArrayLike) -> NDArray[np.float64]:
+    """Angles (rad) wrapped to [-pi, pi): a difference of two bearings as the signed turn between them.
+    An angle already in [-pi, pi) comes back as it is, to the bit.
+
+    >>> wrapped([0.1, np.pi, -np.pi]).tolist(), wrapped(np.radians([190.0, 540.0])).round(4).tolist()
+    ([0.1, -3.141592653589793, -3.141592653589793], [-2.9671, -3.1416])
+    """
+    a = np.asarray(angle, dtype=float)
+    turned = (a + np.pi) % (2 * np.pi) - np.pi  # pi where the remainder rounds up to 2 pi
+    return np.where((a >= -np.pi) & (a < np.pi), a, np.where(turned < np.pi, turned, -np.pi))
+
+
 def nearest_angles(angles: ArrayLike, bearings: ArrayLike) -> NDArray[np.intp]:
     """Index of the angle of ``angles`` (rad, at least one) nearest each of ``bearings`` (rad) around the circle:
     of the two angles either side of a bearing (in order around the circle), the next one when both are as near.
@@ -181,7 +193,7 @@ def nearest_angles(angles: ArrayLike, bearings: ArrayLike) -> NDArray[np.intp]:
     around = a[order]
     after = np.searchsorted(around, b) % len(around)
     before = (after - 1) % len(around)
-    gap = np.abs(np.angle(np.exp(1j * (around[[after, before]] - b))))
+    gap = np.abs(wrapped(around[[after, before]] - b))
     return order[np.where(gap[0] <= gap[1], after, before)]
 
 

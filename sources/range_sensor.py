@@ -30,6 +30,7 @@ import shapely
 from numpy.typing import NDArray
 from pydantic import Field, Strict, model_validator
 
+from evmap.sources.geometry import wrapped
 from evmap.sources.open_space import open_space
 from evmap.sources.params import OpenSpaceParams, RcdParams, SonarParams
 from evmap.sources.rcd import extract_rcds
@@ -184,7 +185,7 @@ def range_features(
     points = p[:, None, :] + t[:, None] * (q - p)[:, None, :] - pose[:2]  # (N, S, 2)
     bearing = np.arctan2(points[..., 1], points[..., 0])
     distance = np.hypot(points[..., 0], points[..., 1])
-    off = np.abs((bearing[..., None] - angles[found] + np.pi) % (2 * np.pi) - np.pi)  # (N, S, B)
+    off = np.abs(wrapped(bearing[..., None] - angles[found]))  # (N, S, B)
     in_cone = off <= np.radians(spec.cone_deg) / 2
     ended = in_cone & (np.abs(distance[..., None] - ranges[found]) <= spec.hit_tolerance)
     echo = ended.any(axis=(1, 2)) if len(p) else np.zeros(0, dtype=bool)

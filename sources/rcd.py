@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from evmap.sources.geometry import wrapped
 from evmap.sources.params import RcdParams
 from evmap.sources.readings import SonarScan
 
@@ -172,7 +173,7 @@ def extract_rcds(scan: SonarScan, params: RcdParams, *, primitive: bool = False)
         TYPE_IV,
         np.where(longer, TYPE_I, np.where(shorter, TYPE_III, TYPE_II)),
     )
-    direction = np.angle(np.exp(1j * np.array([along[a:b].mean() for a, b in runs])))
+    direction = wrapped([along[a:b].mean() for a, b in runs])
     order = np.argsort(idx[i])
     columns = (
         idx[i],

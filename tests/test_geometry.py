@@ -5,7 +5,7 @@ import tracemalloc
 import numpy as np
 import pytest
 import shapely
-from hypothesis import assume, given
+from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
 from evmap.sources import geometry, ray_casting
@@ -199,3 +199,13 @@ def test_nearest_angles_is_the_dense_search(seed: int, n: int, k: int) -> None:
     got = geometry.nearest_angles(angles, bearings)
     gap = np.abs(np.angle(np.exp(1j * (bearings[:, None] - angles[None]))))
     assert np.array_equal(gap[np.arange(k), got], gap.min(axis=1))
+
+
+@given(st.floats(-1e3, 1e3, allow_nan=False))
+@example(float(np.nextafter(-np.pi, -4)))  # the remainder rounds to 2 pi
+def test_wrapped_is_the_same_direction_in_minus_pi_to_pi(angle: float) -> None:
+    got = float(geometry.wrapped(angle))
+    assert -np.pi <= got < np.pi
+    assert np.hypot(np.cos(got) - np.cos(angle), np.sin(got) - np.sin(angle)) < 1e-9
+    if -np.pi <= angle < np.pi:
+        assert got == angle  # to the bit

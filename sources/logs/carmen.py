@@ -70,6 +70,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from evmap.sources.geometry import wrapped
 from evmap.sources.logs.scan import (
     UNITS,
     LaserGeometry,
@@ -366,7 +367,7 @@ def _placed(
 
 def _between_poses(a: NDArray[np.float64], b: NDArray[np.float64], s: float) -> NDArray[np.float64]:
     """The 2D pose the share ``s`` of the way from ``a`` to ``b``, turning the short way."""
-    turn = (b[2] - a[2] + np.pi) % (2 * np.pi) - np.pi
+    turn = wrapped(b[2] - a[2])
     return np.array([a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]), a[2] + s * turn])
 
 

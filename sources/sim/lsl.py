@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evmap.sources.geometry import crossings, point_segment_distances
+from evmap.sources.geometry import crossings, point_segment_distances, wrapped
 from evmap.sources.params import LslParams
 from evmap.sources.polyline import fit_pieces, piece_members, split_pieces
 from evmap.sources.ray_casting import cast_rays
@@ -67,11 +67,6 @@ PHANTOM_NOISE_STREAM = 103
 
 PHANTOM_BRIGHTNESS_STREAM = 104
 """Stream number of the sunlit patches' brightness (``column_max``): ``default_rng([seed, pose_index, 104])``."""
-
-
-def _wrap(angle: ArrayLike) -> NDArray[np.float64]:
-    """Angles wrapped to [-pi, pi)."""
-    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
 def stripe_scan(
@@ -237,7 +232,7 @@ def observe_stripe(world: World, pose_index: int, params: LslParams) -> tuple[Ls
     p, q = _phantom_lines(world, pose_index, params)
     middle = (p + q) / 2 - scan.origin
     bearing = np.arctan2(middle[:, 1], middle[:, 0])
-    snapshot = np.abs(_wrap(bearing[:, None] - scan.angles.mean(axis=1))).argmin(axis=1).astype(np.intp)
+    snapshot = np.abs(wrapped(bearing[:, None] - scan.angles.mean(axis=1))).argmin(axis=1).astype(np.intp)
     phantom, ray, true_range = _phantom_hits(scan, p, q, snapshot)
     noise = np.random.default_rng([world.seed, pose_index, PHANTOM_NOISE_STREAM]).standard_normal(len(ray))
     column_max = world.scenario.sensors.lsl.detector == "column_max"

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 
 from evmap.sources.contour_property import CONTOUR_ARRAYS, ContourPropertySpec, contour_features
 from evmap.sources.detector import DETECTOR_ARRAYS, DETECTOR_CATEGORIES, MAX_PATCHES, DetectorSpec, detector_features
+from evmap.sources.geometry import wrapped
 from evmap.sources.range_sensor import RANGE_ARRAYS, RANGE_CATEGORIES, RangeSpec, range_features
 from evmap.sources.ray_casting import cast_rays
 from evmap.sources.readings import LslSegments
@@ -102,8 +103,7 @@ def simulate_range(
     first = np.where(echoing[hit], ranges, np.inf).reshape(len(angles), -1).min(axis=1)
     noisy = first * (1 + spec.range_noise * rng.standard_normal(len(angles)))
     noisy[~(noisy <= spec.max_range)] = np.inf
-    wrapped = (angles + np.pi) % (2 * np.pi) - np.pi
-    return {"pose": pose.copy(), "angles": wrapped, "ranges": noisy}
+    return {"pose": pose.copy(), "angles": wrapped(angles), "ranges": noisy}
 
 
 def simulate_detector(
