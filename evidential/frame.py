@@ -20,6 +20,9 @@ the sparse operations work on them, slower; dense views stay limited to small fr
 Focal = int | np.integer | str | Iterable[str]
 """A focal set as the user writes it: a bitmask, a name, ``"a|b"``, ``""`` or names."""
 
+LABEL_CACHE_SIZE = 4096
+"""Most labels a frame keeps the bitmask of (the first ones read: labels are few in practice)."""
+
 
 class Frame:
     """An ordered frame of discernment; element ``i`` is bit ``i`` of a focal set.
@@ -40,7 +43,7 @@ class Frame:
     (dtype('int64'), dtype('O'))
     """
 
-    __slots__ = ("_elements", "_index", "dtype", "full")
+    __slots__ = ("_elements", "_index", "_labels", "dtype", "full")
 
     def __init__(self, elements: Iterable[str]) -> None:
         if isinstance(elements, str):
@@ -59,6 +62,7 @@ class Frame:
             raise FrameError(f"frame element {dup!r} is given twice in {list(names)}")
         self._elements = names
         self._index = index
+        self._labels: dict[str, int] = {}
         self.full = (1 << len(names)) - 1
         """The bitmask of the whole frame (Θ)."""
         self.dtype = np.dtype(np.int64 if len(names) <= WORD_BITS else object)
@@ -109,6 +113,13 @@ class Frame:
         >>> Frame(["a", "b", "c"]).mask(("a", "c")), Frame(["a", "b", "c"]).mask(np.int64(5))
         (5, 5)
         """
+        if isinstance(focal, str):  # a label: parsed once, then looked up (the frame never changes)
+            mask = self._labels.get(focal)
+            if mask is None:
+                mask = self._names_mask(focal, focal.split("|") if focal else [])
+                if len(self._labels) < LABEL_CACHE_SIZE:
+                    self._labels[focal] = mask
+            return mask
         if isinstance(focal, bool | np.bool_):
             raise FrameError(f"focal set {focal!r} must be a bitmask, a name or names, got a bool")
         if isinstance(focal, int | np.integer):
@@ -116,9 +127,12 @@ class Frame:
             if not 0 <= focal <= self.full:
                 raise FrameError(f"focal set bitmask {focal} is outside 0..{self.full} of {self!r}")
             return focal
-        if not isinstance(focal, str | Iterable):
+        if not isinstance(focal, Iterable):
             raise FrameError(f"focal set {focal!r} must be a bitmask, a name or names, got a {type(focal).__name__}")
-        names = ([] if focal == "" else focal.split("|")) if isinstance(focal, str) else focal
+        return self._names_mask(focal, focal)
+
+    def _names_mask(self, focal: Focal, names: Iterable[str]) -> int:
+        """The bitmask of ``names``; the error names ``focal``, the set as the user wrote it."""
         mask = 0
         for name in names:
             i = self._index.get(name.strip() if isinstance(name, str) else name)

@@ -63,7 +63,7 @@ class MassFunction:
     True
     """
 
-    __slots__ = ("_stack", "frame")
+    __slots__ = ("_pairs", "_stack", "frame")
 
     def __init__(self, frame: Frame, masses: Mapping[Focal, float], *, open_world: bool = False) -> None:
         self._stack = checked_mapping(frame, masses, open_world=open_world)
@@ -276,7 +276,7 @@ class MassFunction:
         >>> m.belief("a|b"), m.belief(["a", "a|b", 7]).tolist(), m.belief(np.array([4, 0])).tolist()
         (0.75, [0.5, 0.75, 1.0], [0.25, 0.0])
         """
-        return queries.belief(self.frame, self._stack, focal)
+        return queries.belief(self.frame, self._stack, focal, self._python_pairs())
 
     def plausibility(self, focal: Query) -> float | NDArray[np.float64]:
         """pl(A): the mass of the focal sets meeting A; a list or array of sets gives an array (see :meth:`belief`).
@@ -286,7 +286,7 @@ class MassFunction:
         >>> MassFunction(Frame(["a", "b", "c"]), {"a": 0.5, "a|b": 0.25, "c": 0.25}).plausibility([2, 6]).tolist()
         [0.25, 0.5]
         """
-        return queries.plausibility(self.frame, self._stack, focal)
+        return queries.plausibility(self.frame, self._stack, focal, self._python_pairs())
 
     def commonality(self, focal: Query) -> float | NDArray[np.float64]:
         """q(A): the mass of the focal sets containing A; a list or array of sets gives an array (see :meth:`belief`).
@@ -296,7 +296,15 @@ class MassFunction:
         >>> MassFunction(Frame(["a", "b", "c"]), {"a": 0.5, "a|b": 0.25, "c": 0.25}).commonality(["a", ""]).tolist()
         [0.75, 1.0]
         """
-        return queries.commonality(self.frame, self._stack, focal)
+        return queries.commonality(self.frame, self._stack, focal, self._python_pairs())
+
+    def _python_pairs(self) -> queries.Pairs | None:
+        """The stack's :func:`~evidential.queries.python_pairs`, made by the first query (the stack never changes)."""
+        try:
+            return self._pairs
+        except AttributeError:  # the slot stays empty until then
+            self._pairs = queries.python_pairs(self._stack)
+            return self._pairs
 
     def pignistic(self) -> dict[str, float]:
         """The pignistic probabilities BetP(ω) = sum over A ∋ ω of m(A) / |A| / (1 - m(∅)).

@@ -1,17 +1,19 @@
 """The fast paths give the general paths' answers: the plain-Python Dempster fold of tiny frames,
-Dempster's rule of tiny dense batches by columns, the int32 batched queries, the unpacked-bits
-membership, the zeta transform into a new array."""
+Dempster's rule of tiny dense batches by columns, the int32 batched queries, the plain-Python
+one-set queries, the unpacked-bits membership, the zeta transform into a new array."""
 
 from functools import reduce
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from evidential import Frame, MassFunction, TotalConflictError, columns, combine, combine_batch, conflict
 from evidential.columns import COLUMN_MAX_BITS, dempster_columns
 from evidential.elements import element_masses, membership
+from evidential.queries import PYTHON_MAX_SETS as QUERY_PYTHON_MAX_SETS
+from evidential.queries import belief, commonality, plausibility, python_pairs
 from evidential.registry import RULES
 from evidential.stack import (
     PYTHON_MAX_BITS,
@@ -227,6 +229,61 @@ def test_batched_queries_equal_the_single_ones(n):
         one_by_one = np.array([query(int(a)) for a in queries])
         np.testing.assert_allclose(query(queries), one_by_one, rtol=0, atol=1e-15)
         np.testing.assert_allclose(query(queries.tolist()), one_by_one, rtol=0, atol=1e-15)
+
+
+QUERIES = (belief, plausibility, commonality)
+
+
+@st.composite
+def small_stacks(draw) -> tuple[Frame, Stack, list[int]]:
+    """One mass function of 1 to :data:`~evidential.queries.PYTHON_MAX_SETS` focal sets (increasing, ∅
+    first in some) with positive masses of any size (not summing to 1), on a frame of 1 to 4 elements or
+    of 64 (Python int bitmasks); and the sets to query: all of them, or the focal sets and random ones."""
+    n = draw(st.sampled_from([1, 2, 3, 4, 64]))
+    frame = Frame([f"e{i}" for i in range(n)])
+    sets = sorted(draw(st.lists(st.integers(0, frame.full), min_size=1, max_size=QUERY_PYTHON_MAX_SETS, unique=True)))
+    w = draw(st.lists(st.floats(1e-300, 1.0), min_size=len(sets), max_size=len(sets)))
+    stack = Stack(np.array(sets, dtype=frame.dtype), np.array(w)[:, None])
+    asked = range(frame.full + 1) if n <= 4 else [0, frame.full, *sets, *draw(st.lists(st.integers(0, frame.full)))]
+    return frame, stack, list(asked)
+
+
+@settings(max_examples=500)
+@given(small_stacks())
+def test_one_set_queries_in_python_are_the_numpy_ones_bit_for_bit(case):
+    """bel, pl and q of one set summed in Python, left to right, are numpy's floats (fewer than 8 values)."""
+    frame, stack, asked = case
+    pairs = python_pairs(stack)
+    assert pairs == list(zip(stack.masks.tolist(), stack.masses[:, 0].tolist()))
+    m = MassFunction.from_stack(frame, stack, positive=True)
+    for query, method in zip(QUERIES, (m.belief, m.plausibility, m.commonality)):
+        for a in asked:
+            expected = query(frame, stack, a)  # the numpy path
+            assert query(frame, stack, a, pairs) == expected
+            assert method(a) == expected and method(frame.label(a)) == expected
+
+
+def test_one_set_queries_in_python_on_many_random_stacks():
+    """The same on 3000 random stacks of 1 to 7 focal sets on 3 elements, ∅ first in some, masses 1e-20 to 100."""
+    rng = np.random.default_rng(41)
+    frame = Frame(["a", "b", "c"])
+    for _ in range(3000):
+        sets = np.sort(rng.choice(8, size=rng.integers(1, 8), replace=False))
+        sets[0] = 0 if rng.random() < 1 / 3 else sets[0]
+        sets = np.unique(sets)
+        stack = Stack(sets, (rng.random(sets.size) * 10.0 ** rng.integers(-20, 3, sets.size))[:, None])
+        pairs = python_pairs(stack)
+        for query in QUERIES:
+            assert [query(frame, stack, a, pairs) for a in range(8)] == [query(frame, stack, a) for a in range(8)]
+
+
+def test_python_pairs_only_up_to_seven_focal_sets():
+    """From 8 values numpy sums in blocks of 8 (pairwise), not left to right: those stacks stay with numpy."""
+    for k in (QUERY_PYTHON_MAX_SETS, QUERY_PYTHON_MAX_SETS + 1):
+        stack = Stack(np.arange(1, k + 1), np.full((k, 1), 1 / k))
+        assert (python_pairs(stack) is None) == (k > QUERY_PYTHON_MAX_SETS)
+    eights = np.random.default_rng(8).random((100, 8))
+    assert any(float(row.sum()) != reduce(lambda total, w: total + w, row.tolist(), 0.0) for row in eights)
 
 
 @pytest.mark.parametrize("n", [1, 7, 20, 63])

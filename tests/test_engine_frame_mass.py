@@ -1,6 +1,7 @@
 """Frames and mass functions: construction, access, and the errors on bad input."""
 
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -9,6 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from evidential import Frame, FrameError, MassError, MassFunction, combine, combine_batch
+from evidential.frame import LABEL_CACHE_SIZE
 
 FRAME = Frame(["real", "noise"])
 
@@ -39,6 +41,32 @@ def test_bad_frames(elements, match):
 )
 def test_focal_set_spellings(focal, mask):
     assert FRAME.mask(focal) == mask
+
+
+def test_a_label_read_again_has_the_same_mask_and_a_bad_one_the_same_error():
+    """Labels are parsed once and kept; a bad label is not kept: it fails each time with the same error."""
+    frame = Frame(["a", "b", "c"])
+    bad = "a|x"
+    errors = []
+    for _ in range(2):
+        assert [frame.mask(s) for s in ("a", "c|a", " b | a ", "", "a|b|c")] == [1, 5, 3, 0, 7]
+        with pytest.raises(FrameError) as caught:
+            frame.mask(bad)
+        errors.append(str(caught.value))
+    assert errors == [f"focal set 'a|x': element 'x' is not in {frame!r}"] * 2
+    for focal, match in [(True, "got a bool"), (8, "outside 0..7"), (-1, "outside 0..7"), (1.0, "got a float")]:
+        with pytest.raises(FrameError, match=match):
+            frame.mask(focal)
+    assert Frame(["c", "b", "a"]).mask("c|a") == 5 and Frame(["b", "a"]).mask("a") == 2  # a frame's own labels
+    assert pickle.loads(pickle.dumps(frame)).mask("c|a") == 5
+
+
+def test_labels_beyond_the_kept_ones_are_still_read():
+    frame = Frame(["a", "b"])
+    spellings = [" " * i + "b|a" for i in range(LABEL_CACHE_SIZE + 10)]  # all different labels
+    assert {frame.mask(s) for s in spellings} == {3} and {frame.mask(s) for s in spellings} == {3}
+    with pytest.raises(FrameError, match="element 'c' is not in"):
+        frame.mask("a|c")
 
 
 def test_issue_example_access_and_to_dict():
