@@ -159,7 +159,7 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> NDArray[np.in
         free = np.zeros((len(p), 2), dtype=bool)
         if heard:
             free = free_ends(p, q, cp, cq, sonar.end_clearance) & stripe_edges(p, q, pose, poses, params)
-        features["sonar_forward"] = sonar_forward(p, q, free, heard, sonar)
+        features["sonar_forward"] = sonar_forward(p, q, free, heard, sonar, [_judged_noise(store, s) for s in heard])
     ev = noise_evidence(p, q, space, config, features)
     if beyond and (ev.eliminated & ~store.eliminated[ids]).any():
         flipped = set(pose[ev.eliminated != store.eliminated[ids]].tolist())  # the poses whose rays went on anew
@@ -200,6 +200,13 @@ def _beyond(store: SegmentStore, poses: list[Sensed], params: RayParams) -> list
     (:func:`~evmap.maps.contour_free_space.went_on`); an empty list when no pose's sensor reports every surface a
     ray lit (then no ray went on)."""
     return [_went_on(store, s, params) for s in poses] if any(s.all_returns for s in poses) else []
+
+
+def _judged_noise(store: SegmentStore, s: Sensed) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The ends p, q of the pose's segments now judged noise."""
+    rows = store.seen_from(s.pose_index)
+    rows = rows[store.eliminated[rows]]
+    return store.p[rows], store.q[rows]
 
 
 def _went_on(store: SegmentStore, s: Sensed, params: RayParams) -> NDArray[np.bool_]:

@@ -21,6 +21,13 @@ diffract a weak echo. For a segment and a pose's actual scan:
   surface need not end there, and a wall broken into pieces by what stands in
   front of it has no edges to echo.
 
+A pose whose stripe hides the place (the farthest return of its bearing nearest the foot's
+or the end's, within ``shadow_window_deg``, lies nearer than it by more than ``tolerance``;
+a return on a segment of the pose judged noise, a sunlit patch, hides nothing)
+contradicts nothing there: an opaque surface in between stops the sound both ways, and
+the wall beside a pillar, or a pillar's far side, is in its shadow. A surface in the way
+that echoes, echoes nearer: no evidence either way already.
+
 Over all poses: ``confirmed`` if any pose confirms, else ``contradicted`` if any
 contradicts, else ``silent`` (no evidence either way: an oblique wall is silent).
 """
@@ -34,7 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed
-from evmap.sources.geometry import point_segment_distances, wrapped
+from evmap.sources.geometry import near_segments, point_segment_distances, wrapped
 from evmap.sources.readings import SonarScan
 from evmap.sources.sim.sonar import echo_halfwidth
 
@@ -48,6 +55,7 @@ class SonarForwardParams:
     tolerance: float = 0.05  # an echo this close to the predicted range is the segment's
     end_margin: float = 0.02  # the foot must lie this far inside the segment
     end_clearance: float = 0.05  # an end this close to another segment is not free
+    shadow_window_deg: float = 0.5  # the stripe's ray nearest a place's bearing, this close, tells if it hides it
 
 
 def _half_width(scan: SonarScan, r: NDArray[np.float64], strength: float) -> NDArray[np.float64]:
@@ -56,6 +64,37 @@ def _half_width(scan: SonarScan, r: NDArray[np.float64], strength: float) -> NDA
     sonar's range."""
     w = echo_halfwidth(np.full(len(r), strength), np.maximum(r, 1e-9), scan.params)
     return np.where((w >= 0) & (r <= scan.params.max_range), w, np.nan)
+
+
+def _hidden(
+    s: Sensed,
+    bearing: NDArray[np.float64],
+    r: NDArray[np.float64],
+    sunlit: tuple[NDArray[np.float64], NDArray[np.float64]],
+    params: SonarForwardParams,
+) -> NDArray[np.bool_]:
+    """Whether the pose's stripe hides each place at ``bearing`` and range r (module doc): the farthest return of
+    the stripe's bearing nearest it (within ``shadow_window_deg``), among those on none of the ``sunlit``
+    segments (ends p, q), lies nearer than r by more than ``tolerance``."""
+    out = np.zeros(len(r), dtype=bool)
+    b = s.bearing  # sorted, in [-pi, pi)
+    if not len(b) or not len(r):
+        return out
+    at = np.searchsorted(b, bearing)
+    side = np.stack([(at - 1) % len(b), at % len(b)])  # the rays on either side, over the turn
+    gap = np.abs(wrapped(b[side] - bearing))
+    nearest = b[side[np.argmin(gap, axis=0), np.arange(len(r))]]
+    lo, hi = np.searchsorted(b, nearest, side="left"), np.searchsorted(b, nearest, side="right")
+    count = hi - lo  # the rays of that bearing: one, or every return a ray lit
+    target = np.repeat(np.arange(len(r)), count)
+    ray = np.repeat(lo - np.cumsum(count) + count, count) + np.arange(count.sum())
+    rng = s.range[ray]
+    point = s.origin + rng[:, None] * np.column_stack([np.cos(b[ray]), np.sin(b[ray])])
+    returned = np.isfinite(rng)
+    returned[returned] = ~near_segments(point[returned], *sunlit, params.tolerance)  # a sunlit patch hides nothing
+    far = np.full(len(r), -np.inf)
+    np.maximum.at(far, target[returned], rng[returned])
+    return (gap.min(axis=0) <= np.radians(params.shadow_window_deg)) & (far > 0) & (far < r - params.tolerance)
 
 
 def _readings(
@@ -134,8 +173,12 @@ def sonar_forward(
     free: NDArray[np.bool_],
     poses: Sequence[Sensed],
     params: SonarForwardParams,
+    sunlit: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None,
 ) -> NDArray[np.str_]:
     """The feature ``sonar_forward`` of segments p-q with free ends ``free`` (N, 2) (module doc).
+
+    ``sunlit``: per pose, the ends (p, q) of its segments judged noise (none if not given): a stripe point on one
+    hides nothing.
 
     >>> from evmap.sources.params import SonarParams
     >>> angles = np.radians(np.arange(-180, 180))
@@ -149,7 +192,8 @@ def sonar_forward(
     confirmed, contradicted = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
     e = q - p
     length = np.maximum(np.hypot(*e.T), 1e-12)
-    for s in poses:
+    none = np.zeros((0, 2)), np.zeros((0, 2))
+    for s, patches in zip(poses, sunlit or [none] * len(poses), strict=True):
         scan = s.sonar
         if scan is None:
             continue
@@ -163,10 +207,13 @@ def sonar_forward(
         bearing = np.arctan2(foot[:, 1] - o[1], foot[:, 0] - o[0])
         near, beyond = _readings(scan, bearing, d, w, params.tolerance)
         confirmed |= near
+        beyond[beyond] = ~_hidden(s, bearing[beyond], d[beyond], patches, params)
         contradicted |= beyond
         for k, end in enumerate((p, q)):
             r = np.hypot(*(end - o).T)
             w = np.where(free[:, k], _half_width(scan, r, edge), np.nan)
-            _, beyond = _readings(scan, np.arctan2(end[:, 1] - o[1], end[:, 0] - o[0]), r, w, params.tolerance)
+            bearing = np.arctan2(end[:, 1] - o[1], end[:, 0] - o[0])
+            _, beyond = _readings(scan, bearing, r, w, params.tolerance)
+            beyond[beyond] = ~_hidden(s, bearing[beyond], r[beyond], patches, params)
             contradicted |= beyond
     return np.select([confirmed, contradicted], ["confirmed", "contradicted"], "silent")

@@ -189,6 +189,31 @@ def test_sonar_forward_edges_and_oblique_walls() -> None:
     assert sonar_forward(p, q, ~free, [pose], SonarForwardParams()).tolist() == ["silent", "silent"]
 
 
+def test_sonar_forward_hears_nothing_behind_what_the_stripe_saw() -> None:
+    angles = np.radians(np.arange(-180, 180))
+    scan = SonarScan.from_readings(angles, np.full(360, 4.0), SonarParams())  # nothing heard nearer than 4 m
+    bearing = np.radians(np.arange(-30, 30.01, 0.2))
+    blind = Sensed(0, np.zeros(2), np.zeros(0), np.zeros(0), scan)  # no stripe: nothing hides anything
+    face = Sensed(0, np.zeros(2), bearing, 1.0 / np.cos(bearing), scan)  # the stripe ends on a face at x = 1
+    # a segment square to the pose at 2 m, and an oblique one with a free end at 1.5 m: both behind the face
+    p, q = np.array([[2.0, -0.2], [1.5, 0.0]]), np.array([[2.0, 0.2], [1.7, 0.3]])
+    free = np.array([[False, False], [True, False]])
+    params = SonarForwardParams()
+    assert sonar_forward(p, q, free, [blind], params).tolist() == ["contradicted", "contradicted"]
+    assert sonar_forward(p, q, free, [face], params).tolist() == ["silent", "silent"]
+    # the face judged noise (a sunlit patch) hides nothing
+    sunlit = np.array([[1.0, -0.6]]), np.array([[1.0, 0.6]])
+    assert sonar_forward(p, q, free, [face], params, [sunlit]).tolist() == ["contradicted", "contradicted"]
+    # a camera reporting every lit pixel: the farthest return of a bearing hides, here the stripe 3 m away
+    twice = Sensed(
+        0, np.zeros(2), np.repeat(bearing, 2), np.ravel([[1.0, 3.0]] / np.cos(bearing)[:, None]), scan, all_returns=True
+    )
+    assert sonar_forward(p, q, free, [twice], params).tolist() == ["contradicted", "contradicted"]
+    # a face a few centimetres in front of the segment is the segment's own surface: it hides nothing
+    near = Sensed(0, np.zeros(2), bearing, 1.98 / np.cos(bearing), scan)
+    assert sonar_forward(p[:1], q[:1], free[:1], [near], params).tolist() == ["contradicted"]
+
+
 def test_default_config_keeps_the_corridor_walls_and_removes_its_phantoms() -> None:
     config = load_config(DEFAULT)
     world = World(default_scenario())
