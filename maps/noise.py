@@ -159,7 +159,8 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> NDArray[np.in
         free = np.zeros((len(p), 2), dtype=bool)
         if heard:
             free = free_ends(p, q, cp, cq, sonar.end_clearance) & stripe_edges(p, q, pose, poses, params)
-        features["sonar_forward"] = sonar_forward(p, q, free, heard, sonar, [_judged_noise(store, s) for s in heard])
+        sunlit = [_judged_noise(store, s) for s in heard]
+        features["sonar_forward"] = sonar_forward(p, q, free, heard, sonar, sunlit, params.max_range)
     ev = noise_evidence(p, q, space, config, features)
     if beyond and (ev.eliminated & ~store.eliminated[ids]).any():
         flipped = set(pose[ev.eliminated != store.eliminated[ids]].tolist())  # the poses whose rays went on anew

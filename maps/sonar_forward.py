@@ -26,7 +26,8 @@ or the end's, within ``shadow_window_deg``, lies nearer than it by more than ``t
 a return on a segment of the pose judged noise, a sunlit patch, hides nothing)
 contradicts nothing there: an opaque surface in between stops the sound both ways, and
 the wall beside a pillar, or a pillar's far side, is in its shadow. A surface in the way
-that echoes, echoes nearer: no evidence either way already.
+that echoes, echoes nearer: no evidence either way already. Nor does a pose contradict a
+place beyond its stripe's range (``reach``), whose way the stripe cannot show clear.
 
 Over all poses: ``confirmed`` if any pose confirms, else ``contradicted`` if any
 contradicts, else ``silent`` (no evidence either way: an oblique wall is silent).
@@ -66,17 +67,19 @@ def _half_width(scan: SonarScan, r: NDArray[np.float64], strength: float) -> NDA
     return np.where((w >= 0) & (r <= scan.params.max_range), w, np.nan)
 
 
-def _hidden(
+def _unseen(
     s: Sensed,
     bearing: NDArray[np.float64],
     r: NDArray[np.float64],
     sunlit: tuple[NDArray[np.float64], NDArray[np.float64]],
+    reach: float,
     params: SonarForwardParams,
 ) -> NDArray[np.bool_]:
-    """Whether the pose's stripe hides each place at ``bearing`` and range r (module doc): the farthest return of
-    the stripe's bearing nearest it (within ``shadow_window_deg``), among those on none of the ``sunlit``
-    segments (ends p, q), lies nearer than r by more than ``tolerance``."""
-    out = np.zeros(len(r), dtype=bool)
+    """Whether the pose's stripe cannot show the way to each place at ``bearing`` and range r clear (module
+    doc): the place lies beyond ``reach``, or the farthest return of the stripe's bearing nearest it (within
+    ``shadow_window_deg``), among those on none of the ``sunlit`` segments (ends p, q), lies nearer than r by
+    more than ``tolerance``."""
+    out = r > reach
     b = s.bearing  # sorted, in [-pi, pi)
     if not len(b) or not len(r):
         return out
@@ -94,7 +97,8 @@ def _hidden(
     returned[returned] = ~near_segments(point[returned], *sunlit, params.tolerance)  # a sunlit patch hides nothing
     far = np.full(len(r), -np.inf)
     np.maximum.at(far, target[returned], rng[returned])
-    return (gap.min(axis=0) <= np.radians(params.shadow_window_deg)) & (far > 0) & (far < r - params.tolerance)
+    hidden = (gap.min(axis=0) <= np.radians(params.shadow_window_deg)) & (far > 0) & (far < r - params.tolerance)
+    return out | hidden
 
 
 def _readings(
@@ -174,11 +178,12 @@ def sonar_forward(
     poses: Sequence[Sensed],
     params: SonarForwardParams,
     sunlit: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None,
+    reach: float = np.inf,
 ) -> NDArray[np.str_]:
     """The feature ``sonar_forward`` of segments p-q with free ends ``free`` (N, 2) (module doc).
 
     ``sunlit``: per pose, the ends (p, q) of its segments judged noise (none if not given): a stripe point on one
-    hides nothing.
+    hides nothing. ``reach``: the stripe's range (m).
 
     >>> from evmap.sources.params import SonarParams
     >>> angles = np.radians(np.arange(-180, 180))
@@ -207,13 +212,13 @@ def sonar_forward(
         bearing = np.arctan2(foot[:, 1] - o[1], foot[:, 0] - o[0])
         near, beyond = _readings(scan, bearing, d, w, params.tolerance)
         confirmed |= near
-        beyond[beyond] = ~_hidden(s, bearing[beyond], d[beyond], patches, params)
+        beyond[beyond] = ~_unseen(s, bearing[beyond], d[beyond], patches, reach, params)
         contradicted |= beyond
         for k, end in enumerate((p, q)):
             r = np.hypot(*(end - o).T)
             w = np.where(free[:, k], _half_width(scan, r, edge), np.nan)
             bearing = np.arctan2(end[:, 1] - o[1], end[:, 0] - o[0])
             _, beyond = _readings(scan, bearing, r, w, params.tolerance)
-            beyond[beyond] = ~_hidden(s, bearing[beyond], r[beyond], patches, params)
+            beyond[beyond] = ~_unseen(s, bearing[beyond], r[beyond], patches, reach, params)
             contradicted |= beyond
     return np.select([confirmed, contradicted], ["confirmed", "contradicted"], "silent")

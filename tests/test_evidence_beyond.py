@@ -201,6 +201,8 @@ def test_sonar_forward_hears_nothing_behind_what_the_stripe_saw() -> None:
     params = SonarForwardParams()
     assert sonar_forward(p, q, free, [blind], params).tolist() == ["contradicted", "contradicted"]
     assert sonar_forward(p, q, free, [face], params).tolist() == ["silent", "silent"]
+    # beyond the stripe's range the way to a place is not known clear: the segment at 2 m, the end at 1.5 m
+    assert sonar_forward(p, q, free, [blind], params, reach=1.8).tolist() == ["silent", "contradicted"]
     # the face judged noise (a sunlit patch) hides nothing
     sunlit = np.array([[1.0, -0.6]]), np.array([[1.0, 0.6]])
     assert sonar_forward(p, q, free, [face], params, [sunlit]).tolist() == ["contradicted", "contradicted"]
