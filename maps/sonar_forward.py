@@ -212,13 +212,15 @@ def sonar_forward(
         bearing = np.arctan2(foot[:, 1] - o[1], foot[:, 0] - o[0])
         near, beyond = _readings(scan, bearing, d, w, params.tolerance)
         confirmed |= near
-        beyond[beyond] = ~_unseen(s, bearing[beyond], d[beyond], patches, reach, params)
-        contradicted |= beyond
+        places = [(beyond, bearing, d)]  # where a real segment would have answered first: its foot, its free ends
         for k, end in enumerate((p, q)):
             r = np.hypot(*(end - o).T)
             w = np.where(free[:, k], _half_width(scan, r, edge), np.nan)
             bearing = np.arctan2(end[:, 1] - o[1], end[:, 0] - o[0])
-            _, beyond = _readings(scan, bearing, r, w, params.tolerance)
-            beyond[beyond] = ~_unseen(s, bearing[beyond], r[beyond], patches, reach, params)
-            contradicted |= beyond
+            places.append((_readings(scan, bearing, r, w, params.tolerance)[1], bearing, r))
+        rows = np.concatenate([np.flatnonzero(b) for b, _, _ in places])
+        if len(rows):  # one look at the pose's stripe for all of them
+            to = np.concatenate([bearing[b] for b, bearing, _ in places])
+            far = np.concatenate([r[b] for b, _, r in places])
+            contradicted[rows[~_unseen(s, to, far, patches, reach, params)]] = True
     return np.select([confirmed, contradicted], ["confirmed", "contradicted"], "silent")
