@@ -197,8 +197,8 @@ def sonar_forward(
     confirmed, contradicted = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
     e = q - p
     length = np.maximum(np.hypot(*e.T), 1e-12)
-    none = np.zeros((0, 2)), np.zeros((0, 2))
-    for s, patches in zip(poses, sunlit or [none] * len(poses), strict=True):
+    no_patches = np.zeros((0, 2)), np.zeros((0, 2))
+    for s, patches in zip(poses, sunlit or [no_patches] * len(poses), strict=True):
         scan = s.sonar
         if scan is None:
             continue
@@ -220,7 +220,7 @@ def sonar_forward(
             places.append((_readings(scan, bearing, r, w, params.tolerance)[1], bearing, r))
         rows = np.concatenate([np.flatnonzero(b) for b, _, _ in places])
         if len(rows):  # one look at the pose's stripe for all of them
-            to = np.concatenate([bearing[b] for b, bearing, _ in places])
-            far = np.concatenate([r[b] for b, _, r in places])
-            contradicted[rows[~_unseen(s, to, far, patches, reach, params)]] = True
+            bearings = np.concatenate([x[b] for b, x, _ in places])
+            ranges = np.concatenate([x[b] for b, _, x in places])
+            contradicted[rows[~_unseen(s, bearings, ranges, patches, reach, params)]] = True
     return np.select([confirmed, contradicted], ["confirmed", "contradicted"], "silent")
