@@ -159,7 +159,7 @@ def judge(bm: BeliefMap, ids: NDArray[np.intp], config: Config) -> NDArray[np.in
         free = np.zeros((len(p), 2), dtype=bool)
         if heard:
             free = free_ends(p, q, cp, cq, sonar.end_clearance) & stripe_edges(p, q, pose, poses, params)
-        sunlit = [_judged_noise(store, s) for s in heard]
+        sunlit = [_judged(store, s.pose_index)[0] for s in heard]
         features["sonar_forward"] = sonar_forward(p, q, free, heard, sonar, sunlit, params.max_range)
     ev = noise_evidence(p, q, space, config, features)
     if beyond and (ev.eliminated & ~store.eliminated[ids]).any():
@@ -203,18 +203,18 @@ def _beyond(store: SegmentStore, poses: list[Sensed], params: RayParams) -> list
     return [_went_on(store, s, params) for s in poses] if any(s.all_returns for s in poses) else []
 
 
-def _judged_noise(store: SegmentStore, s: Sensed) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The ends p, q of the pose's segments now judged noise."""
-    rows = store.seen_from(s.pose_index)
-    rows = rows[store.eliminated[rows]]
-    return store.p[rows], store.q[rows]
+def _judged(store: SegmentStore, pose: int) -> tuple[tuple[NDArray[np.float64], ...], tuple[NDArray[np.float64], ...]]:
+    """The ends (p, q) of the pose's segments now judged noise, and of those kept."""
+    rows = store.seen_from(pose)
+    noise, kept = rows[store.eliminated[rows]], rows[~store.eliminated[rows]]
+    return (store.p[noise], store.q[noise]), (store.p[kept], store.q[kept])
 
 
 def _went_on(store: SegmentStore, s: Sensed, params: RayParams) -> NDArray[np.bool_]:
     """:func:`~evmap.maps.contour_free_space.went_on` of the pose ``s`` through its segments now judged noise."""
-    rows = store.seen_from(s.pose_index) if s.all_returns else np.zeros(0, dtype=np.intp)
-    noise, kept = rows[store.eliminated[rows]], rows[~store.eliminated[rows]]
-    return went_on(s, (store.p[noise], store.q[noise]), (store.p[kept], store.q[kept]), params)
+    if not s.all_returns:
+        return np.zeros(len(s.range), dtype=bool)
+    return went_on(s, *_judged(store, s.pose_index), params)
 
 
 def _second_look(

@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from evmap.maps.sensed import Sensed
-from evmap.sources.geometry import near_segments, point_segment_distances, wrapped
+from evmap.sources.geometry import near_segments, nearest_angles, point_segment_distances, wrapped
 from evmap.sources.readings import SonarScan
 from evmap.sources.sim.sonar import echo_halfwidth
 
@@ -83,10 +83,7 @@ def _unseen(
     b = s.bearing  # sorted, in [-pi, pi)
     if not len(b) or not len(r):
         return out
-    at = np.searchsorted(b, bearing)
-    side = np.stack([(at - 1) % len(b), at % len(b)])  # the rays on either side, over the turn
-    gap = np.abs(wrapped(b[side] - bearing))
-    nearest = b[side[np.argmin(gap, axis=0), np.arange(len(r))]]
+    nearest = b[nearest_angles(b, bearing)]
     lo, hi = np.searchsorted(b, nearest, side="left"), np.searchsorted(b, nearest, side="right")
     count = hi - lo  # the rays of that bearing: one, or every return a ray lit
     target = np.repeat(np.arange(len(r)), count)
@@ -97,7 +94,8 @@ def _unseen(
     returned[returned] = ~near_segments(point[returned], *sunlit, params.tolerance)  # a sunlit patch hides nothing
     far = np.full(len(r), -np.inf)
     np.maximum.at(far, target[returned], rng[returned])
-    hidden = (gap.min(axis=0) <= np.radians(params.shadow_window_deg)) & (far > 0) & (far < r - params.tolerance)
+    close = np.abs(wrapped(nearest - bearing)) <= np.radians(params.shadow_window_deg)
+    hidden = close & (far > 0) & (far < r - params.tolerance)
     return out | hidden
 
 
