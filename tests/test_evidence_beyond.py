@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from pinned_worlds import former
 
 from evmap.maps.belief_map import new_map
 from evmap.maps.contour_free_space import RayParams, ray_features, ray_tally, stripe_edges
@@ -277,9 +278,8 @@ def test_an_rcd_explained_at_its_aim_makes_no_object_at_its_arc_s_end() -> None:
     from evmap.maps.app.compare_hazards import SPURIOUS_FAR, surface_distances
     from evmap.maps.app.compare_metrics import fuse_rules
     from evmap.sources.sim.worldgen import generate_world, world_seed
-    from evmap.sources.sim.worldgen_params import WorldGenParams
 
-    world = generate_world(world_seed(172, 8), WorldGenParams(column_max_share=1.0))
+    world = generate_world(world_seed(172, 8), former(column_max_share=1.0))
     run = fuse_rules(world, load_config("default"), ["dempster"])["dempster"]
     objects = np.array([u.xy for u in run.map.unidentified()])
     assert len(objects) == 3 and (surface_distances(objects, run.world.surfaces()) <= SPURIOUS_FAR).all()

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from matplotlib.figure import Figure
+from pinned_worlds import former
 
 from evmap.maps import BeliefMap
 from evmap.maps.app import figures
@@ -172,7 +173,7 @@ def test_a_tour_s_consolidated_supports_are_no_segments_of_the_report_the_record
     from evmap.maps.app.run import segment_records
     from evmap.sources.sim.worldgen import generate_world, world_seed
 
-    run = run_scenario(generate_world(world_seed(0, 2)), load_config("paper"))  # a 6-pose tour
+    run = run_scenario(generate_world(world_seed(0, 2), former()), load_config("paper"))  # a 6-pose tour
     store = run.map.segments
     assert (store.seen > 1).any() and (store.role[store.seen > 1] == "absorbed").any()
     r, records = report(run), segment_records(run)

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import shapely
+from pinned_worlds import former
 
 from evmap import configs
 from evmap.maps import BeliefMap, new_map
@@ -61,7 +62,7 @@ def test_sonar_sectors_end_at_the_stripe_and_what_the_stripe_saw_stays_free():
     from evmap.maps.app.compare_metrics import fuse_rules
     from evmap.sources.sim.worldgen import generate_world, world_seed
 
-    run = fuse_rules(generate_world(world_seed(7, 6)), load_config("default"), ["dempster"])["dempster"]
+    run = fuse_rules(generate_world(world_seed(7, 6), former()), load_config("default"), ["dempster"])["dempster"]
     behind, behind_opaque, free = free_behind_walls(run.map, run.world)
     kept, seen = free_seen_kept(run.map, stripe_seen(run.world, run.config))
     # none behind glass either: its window's pane was heard between two walls in line (3,018 of 12,599 free cells before)
@@ -77,9 +78,8 @@ def test_a_ray_on_a_point_judged_noise_bounds_the_sonar_when_the_camera_keeps_on
     from evmap.maps.app.compare_hazards import free_behind_walls, free_seen_kept, stripe_seen
     from evmap.maps.app.compare_metrics import fuse_rules
     from evmap.sources.sim.worldgen import generate_world, world_seed
-    from evmap.sources.sim.worldgen_params import WorldGenParams
 
-    world = generate_world(world_seed(132, 1), WorldGenParams(column_max_share=1.0))
+    world = generate_world(world_seed(132, 1), former(column_max_share=1.0))
     run = fuse_rules(world, load_config("default"), ["dempster"])["dempster"]
     assert not sensed(run.map)[0].all_returns  # the camera kept one pixel a column
     _, behind_opaque, free = free_behind_walls(run.map, run.world)
@@ -116,9 +116,8 @@ def test_free_cells_behind_walls_split_by_what_a_sensor_reported():
     from evmap.maps.app.compare_hazards import free_behind_perceived, free_behind_walls, free_seen_kept, stripe_seen
     from evmap.maps.app.compare_metrics import fuse_rules, heard_glass
     from evmap.sources.sim.worldgen import generate_world, world_seed
-    from evmap.sources.sim.worldgen_params import WorldGenParams
 
-    world = generate_world(world_seed(133, 4), WorldGenParams(column_max_share=0.5))
+    world = generate_world(world_seed(133, 4), former(column_max_share=0.5))
     run = fuse_rules(world, load_config("default"), ["dempster"])["dempster"]
     behind, behind_opaque, _ = free_behind_walls(run.map, run.world)
     s = run.world.surfaces()
@@ -143,9 +142,8 @@ def test_a_fan_through_rays_alternating_between_two_ranges_is_united():
     hole to a shell")."""
     from evmap.maps.app.compare_metrics import fuse_rules
     from evmap.sources.sim.worldgen import generate_world, world_seed
-    from evmap.sources.sim.worldgen_params import WorldGenParams
 
-    world = generate_world(world_seed(171, 15), WorldGenParams(column_max_share=0.0))
+    world = generate_world(world_seed(171, 15), former(column_max_share=0.0))
     run = fuse_rules(world, load_config("default"), ["dempster"])["dempster"]
     assert sensed(run.map)[0].all_returns
     free = free_space(run.map)
@@ -160,7 +158,7 @@ def test_sonar_sectors_end_at_the_stripe_s_range_where_it_returned_nothing():
     from evmap.maps.app.compare_metrics import fuse_rules
     from evmap.sources.sim.worldgen import generate_world, world_seed
 
-    run = fuse_rules(generate_world(world_seed(73, 1)), load_config("default"), ["dempster"])["dempster"]
+    run = fuse_rules(generate_world(world_seed(73, 1), former()), load_config("default"), ["dempster"])["dempster"]
     free = free_space(run.map)
     xmin, ymin, xmax, ymax = free.bounds
     x, y = np.meshgrid(np.arange(xmin, xmax, 0.1), np.arange(ymin, ymax, 0.1))
@@ -260,7 +258,7 @@ def test_a_chair_leg_and_a_door_jamb_in_line_make_no_window():
     from evmap.maps.app.compare_metrics import fuse_rules
     from evmap.sources.sim.worldgen import generate_world, world_seed
 
-    run = fuse_rules(generate_world(world_seed(76, 3)), load_config("default"), ["dempster"])["dempster"]
+    run = fuse_rules(generate_world(world_seed(76, 3), former()), load_config("default"), ["dempster"])["dempster"]
     seen = stripe_seen(run.world, run.config)
     box = seen[(seen[:, 0] > 4.2) & (seen[:, 0] < 4.9) & (seen[:, 1] > 0.3) & (seen[:, 1] < 1.9)]
     assert len(box) == 101 and _grid_free(run.map, box) >= 93
@@ -300,7 +298,7 @@ def test_free_space_of_sectors_whose_edges_nearly_touch():
     from evmap.maps.app.compare_metrics import fuse_configs
     from evmap.sources.sim.worldgen import generate_world, world_seed
 
-    scenario = generate_world(world_seed(1, 119), name="world-0119")
+    scenario = generate_world(world_seed(1, 119), former(), name="world-0119")
     bm = fuse_configs(scenario, {"default": resolve_config("default")}, ["yager"])["default", "yager"].map
     free = free_space(bm)
     assert free.is_valid and free.area > 50

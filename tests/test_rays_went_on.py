@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from pinned_worlds import former
 
 from evmap.maps import noise
 from evmap.maps.belief_map import new_map
@@ -20,7 +21,6 @@ from evmap.sources.readings import SonarScan
 from evmap.sources.sim.scenario import parse_scenario
 from evmap.sources.sim.world import World
 from evmap.sources.sim.worldgen import generate_world
-from evmap.sources.sim.worldgen_params import WorldGenParams
 
 NONE = (np.zeros((0, 2)), np.zeros((0, 2)))
 
@@ -93,7 +93,7 @@ def test_a_tour_seen_by_a_threshold_camera_loses_more_phantoms_and_no_wall() -> 
     """A generated 4-pose tour: the same observations folded with and without what the rays beyond the
     phantoms' pixels say."""
     config = load_config("default")
-    world = World(generate_world(0, WorldGenParams(column_max_share=0.0)))
+    world = World(generate_world(0, former(column_max_share=0.0)))
     observations = [observe(world, k, config) for k in range(len(world.poses))]
     assert len(observations) == 4 and all(obs.all_returns for obs in observations)
     out = {}
@@ -121,7 +121,7 @@ def test_the_second_look_judges_again_what_the_rays_that_went_on_anew_change_as_
         return np.arange(len(p))
 
     for seed in (0, 3):
-        world = World(generate_world(seed, WorldGenParams(column_max_share=0.0)))
+        world = World(generate_world(seed, former(column_max_share=0.0)))
         observations = [observe(world, k, config) for k in range(len(world.poses))]
         maps = []
         for facing in (noise.segments_facing, every):

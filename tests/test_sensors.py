@@ -9,6 +9,7 @@ from typing import Literal
 import numpy as np
 import pytest
 import yaml
+from pinned_worlds import former
 
 from evmap import configs
 from evmap.maps import new_map
@@ -80,7 +81,7 @@ def test_a_range_ring_sees_walls_and_lets_glass_pass():
 
 
 def test_simulated_readings_follow_the_seed_rule():
-    world = World(generate_world(3))
+    world = World(generate_world(3, former()))
     kind = sensor_kinds()["detector"]
     spec = kind.spec.model_validate({"kind": "detector", "materials": ["wall"], "false_alarms": [[0, 0.5], [4, 0.5]]})
     lsl = observe_lsl(world, 0, load_config().sensors.lsl)
@@ -217,7 +218,7 @@ def test_the_sensor_figure_shows_each_feature_with_the_reports_counts(tmp_path, 
 
 @pytest.mark.parametrize("example", ["infrared.yaml", "stripe_width.yaml"])
 def test_an_example_sensor_changes_noise_elimination_on_a_generated_world(example):
-    world = generate_world(1016)  # its tour passes sunlight within the infrared ring's 3 m
+    world = generate_world(1016, former())  # its tour passes sunlight within the infrared ring's 3 m
     paper = run_scenario(world, load_config()).map.segments
     extra = run_scenario(world, load_config(configs.path(f"examples/{example}"))).map.segments
     noise = paper.truth == "noise"

@@ -7,6 +7,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from pinned_worlds import former
 
 from evidential import MassFunction
 from evmap.maps import new_map
@@ -186,9 +187,8 @@ def test_a_corner_s_image_behind_a_glass_facade_is_removed_in_a_generated_world(
     from evmap.maps.app.compare_hazards import surface_distances
     from evmap.maps.app.compare_metrics import fuse_rules
     from evmap.sources.sim.worldgen import generate_world, world_seed
-    from evmap.sources.sim.worldgen_params import WorldGenParams
 
-    scenario = generate_world(world_seed(seed, index), WorldGenParams(column_max_share=0.0))
+    scenario = generate_world(world_seed(seed, index), former(column_max_share=0.0))
     data = load_config("default").to_data()
     data["unidentified"]["mirror_tolerance"] = 0.0
     kept = {}

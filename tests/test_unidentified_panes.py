@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from pinned_worlds import former
 
 from evidential import MassFunction
 from evmap import configs
@@ -108,14 +109,13 @@ def test_an_echo_beyond_a_wide_window_in_a_wall_is_a_double_bounce() -> None:
     from evmap.maps.app.compare_hazards import surface_distances
     from evmap.maps.app.compare_metrics import fuse_rules
     from evmap.sources.sim.worldgen import generate_world, world_seed
-    from evmap.sources.sim.worldgen_params import WorldGenParams
 
     default = load_config("default")
     data = default.to_data()
     data["unidentified"]["window_width"] = 2.5
     data["unidentified"]["mirror_tolerance"] = 0.0
     narrow = config_from_data(data, "narrow")
-    scenario = generate_world(world_seed(22, 4), WorldGenParams(column_max_share=0.0))
+    scenario = generate_world(world_seed(22, 4), former(column_max_share=0.0))
     far = {}
     for name, config in (("default", default), ("narrow", narrow)):
         run = fuse_rules(scenario, config, ["dempster"])["dempster"]

@@ -21,7 +21,7 @@ from evmap.sources.sim.scenario import (
 from evmap.sources.sim.sonar import simulate_scan
 from evmap.sources.sim.world import World, visible
 from evmap.sources.sim.worldgen import generate_world, scenario_yaml, world_seed
-from evmap.sources.sim.worldgen_furniture import CLUTTER_GAP
+from evmap.sources.sim.worldgen_furniture import CLUTTER_GAP, SUNLIT_CENTRE
 from evmap.sources.sim.worldgen_params import WorldGenParams
 
 PARAMS = WorldGenParams()
@@ -127,6 +127,27 @@ def test_clutter_is_small_real_and_clear_of_the_tour(worlds):
                 assert c.material == "wall" and PARAMS.leg_radius[0] <= c.radius <= PARAMS.leg_radius[1]
                 assert all(p.distance(shapely.Point(c.center)) - c.radius >= PARAMS.clearance for p in poses)
     assert boxes >= len(worlds) and legs >= len(worlds)
+
+
+def test_some_clutter_stands_in_the_sunlight_off_its_centroid(worlds):
+    # furniture by a window: among the phantoms, but off the point the simulator looks at to see the region
+    pieces = sunlit = 0
+    for w in worlds:
+        regions = [shapely.Polygon(r.polygon) for r in w.world.sunlight]
+        shapes = [shapely.Polygon(x.points) for x in w.world.walls if x.id.startswith("box")]
+        shapes += [shapely.Point(c.center).buffer(c.radius) for c in w.world.cylinders if c.id.startswith("chair")]
+        for shape in shapes:
+            pieces += 1
+            lit = [r for r in regions if r.intersects(shape)]
+            sunlit += bool(lit)
+            assert all(shape.distance(r.centroid) >= SUNLIT_CENTRE - 1e-3 for r in lit)
+    assert 0.1 * pieces <= sunlit <= 0.5 * pieces
+    dark = WorldGenParams(sunlit_clutter_share=0)
+    for i in range(10):
+        w = generate_world(world_seed(7, i), dark)
+        regions = shapely.union_all([shapely.Polygon(r.polygon) for r in w.world.sunlight])
+        boxes = [shapely.Polygon(x.points) for x in w.world.walls if x.id.startswith("box")]
+        assert all(box.distance(regions) >= CLUTTER_GAP - 1e-3 for box in boxes)
 
 
 def test_sunlight_within_limits_on_long_tours():

@@ -15,7 +15,7 @@ shares and ranges of :class:`WorldGenParams`:
   (:mod:`~evmap.sources.sim.worldgen_furniture`);
 - the robot's tour (:mod:`~evmap.sources.sim.worldgen_tour`): 3-6 poses along a
   path, each in sight of the previous one, or a single pose;
-- small clutter of wall material (boxes, chair legs), clear of the tour.
+- small clutter of wall material (boxes, chair legs), clear of the tour, some of it in the sunlight.
 
 The boundary rings of the free space are the walls, cut into polylines where the
 material changes. Wall coordinates are multiples of :attr:`WorldGenParams.grid`
@@ -147,7 +147,7 @@ def _world_data(draws: Draws, seed: int, name: str) -> dict[str, Any]:
         shapely.Point(c["center"]).buffer(c["radius"]) for c in round_pillars
     ]
     path = tour(draws, plan.free, obstacles, lit, count)
-    boxes, legs = clutter(draws, plan.free, [*path.keep_clear, *obstacles, *lit])
+    boxes, legs = clutter(draws, plan.free, [*path.keep_clear, *obstacles], lit)
     return {
         "version": 1,
         "name": name,

@@ -89,13 +89,16 @@ class WorldGenParams(BaseModel):
     partition_length: Range = (0.8, 2.0)
     mirror_share: float = Field(0.2, ge=0, le=1, description="probability that a partition is a mirror, not glass")
     pillars: CountRange = (0, 3)
-    pillar_radius: Range = (0.1, 0.25)
+    pillar_radius: Range = (0.1, 0.4)
     # clutter: small real objects of wall material, placed after the tour, clear of it
     boxes: CountRange = Field((0, 4), description="small boxes (rectangles of wall material, any orientation)")
     box_size: Range = Field((0.05, 0.6), description="side of a box (m)")
     chairs: CountRange = Field((0, 2), description="chairs: four thin cylinders (legs) at the corners of a square")
     chair_size: Range = Field((0.35, 0.5), description="distance between two neighbouring chair legs (m)")
     leg_radius: Range = Field((0.025, 0.05), description="radius of a chair leg (m)")
+    sunlit_clutter_share: float = Field(
+        0.3, ge=0, le=1, description="probability that a piece of clutter stands in a sunlight region (if any)"
+    )
     # the robot's tour and sensors
     poses: CountRange = Field((3, 6), description="poses of a tour (a path, each pose in sight of the previous one)")
     single_pose_share: float = Field(
