@@ -14,9 +14,10 @@ a door is a gap in a wall too, and something heard in it is no pane. With such a
 line between the two walls (panes between mullions) the chord is at most ``window``
 long, and no short line between them crosses the face's line or ends on it away from the
 walls' ends (a door's jamb, the wall turning: the pane beside a door ends there; a room's
-wall behind the glass is longer). Else the nearest lines in line on either side, a wall and
-a mullion, with no line meeting the face's line nearer, bound it up to ``window``: the pane
-at a facade's end, between its wall and the first mullion.
+wall behind the glass is longer). Else the nearest lines in line on either side, walls or
+mullions, with no line meeting the face's line nearer, bound it up to ``window``: the pane
+at a facade's end, between its wall and the first mullion, or between two mullions (a facade
+whose walls turn at its ends, or go on beyond a door's jamb, has no wall in line to span it).
 """
 
 from __future__ import annotations
@@ -73,7 +74,7 @@ def _window(
     """The ends of the face of an object at ``xy`` square to a pose (``side``: a unit vector along it): the
     nearest ends of the walls (``wall_length`` long at least) in line with it on either side, when they are at
     most ``glass_wall`` apart (``window`` with shorter lines in line between them: mullions) and no jamb lies
-    between them; else those of the nearest lines in line with it on either side, one of them a wall, when no
+    between them; else those of the nearest lines in line with it on either side (walls or mullions), when no
     line meets the face's line nearer and they are at most ``window`` apart; else ``object_width`` across."""
     half = side * params.object_width / 2
     wp, wq = walls
@@ -100,7 +101,7 @@ def _window(
         between = (lo > hi[l_]) & (hi < lo[r])
         # a short line meeting the face's line away from the walls' ends: a jamb, the wall turning at a door
         jambs = meets & (length < params.wall_length) & (lo > hi[l_] + params.in_line) & (hi < lo[r] - params.in_line)
-        if not (ok[l_] or ok[r]) or meets[l_] or meets[r] or jambs.any():
+        if meets[l_] or meets[r] or jambs.any():
             continue
         a, b = (wq if sp[l_] < sq[l_] else wp)[l_], (wp if sp[r] < sq[r] else wq)[r]  # the nearer ends
         if np.hypot(*(b - a)) <= (params.window if (in_line & between).any() else widest):
