@@ -112,8 +112,8 @@ def clutter(
     for _ in range(draws.count(p.boxes)):
         half = np.array([draws.uniform(p.box_size), draws.uniform(p.box_size)]) / 2
         corners = _turned(half * [[-1, -1], [1, -1], [1, 1], [-1, 1]], draws.rng.uniform(0, np.pi))
-        at, off = in_sun if sunny() else shade
-        for c in draws.points_in(at):
+        within, off = in_sun if sunny() else shade
+        for c in draws.points_in(within):
             shape = shapely.Polygon(np.round(corners + c.coords[0], 3))
             if area.contains(shape) and not shape.intersects(blocked) and not shape.intersects(off):
                 blocked = shapely.union(blocked, shape.buffer(CLUTTER_GAP))
